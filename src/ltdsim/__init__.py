@@ -1,0 +1,27 @@
+"""ltdsim: longitudinal train dynamics with nonlinear couplers.
+
+Quick start::
+
+    import ltdsim
+    sc = ltdsim.load_scenario("scenarios/paper.toml", case="LHHL")
+    ds = ltdsim.simulate(sc.with_overrides({"solver.t_end": 20.0}))
+    ds.coupler_force.sel(coupler=0).plot()
+"""
+
+__version__ = "0.1.0"
+
+from ltdsim.errors import LtdsimError, ScenarioError, SimulationError  # noqa: E402
+from ltdsim.io import load_result, save_result  # noqa: E402
+from ltdsim.scenario import Scenario, load_scenario  # noqa: E402
+from ltdsim.simulate import simulate  # noqa: E402
+
+__all__ = [
+    "LtdsimError",
+    "Scenario",
+    "ScenarioError",
+    "SimulationError",
+    "load_result",
+    "load_scenario",
+    "save_result",
+    "simulate",
+]

@@ -1,0 +1,243 @@
+"""The compiled simulation loop: right-hand side, controller and Runge-Kutta stepping.
+
+Everything here runs under numba with flat arrays only (see :mod:`ltdsim.lowering` for
+the layout). The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1)]``: displacement of
+each vehicle from its initial position (m) and its speed (m/s). The discrete PID is
+sampled between steps and its output held over the step (zero-order hold), as a
+digital controller is; every continuous quantity is a pure function of ``(t, y)``, so
+any Runge-Kutta method can evaluate it any number of times per step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ltdsim.lowering import (
+    C_LINEAR, D_EVERY, D_FILT, D_INT, D_KD, D_KI, D_KP, D_MODE, D_N, D_TS, MODE_SPEED,
+    P_D0, P_DAMP, P_K1, P_K2, P_K3, P_PRELOAD, P_SLACK, P_STIFF, P_VC,
+    T_DMAX, T_AMAX, T_FF, T_FMAX, T_G, T_MADH, T_MTOT, T_PMAX, T_REF,
+    V_DA, V_DB, V_DC, V_DV0, V_MASS, V_P0, V_SHARE, V_WMASS,
+)
+from ltdsim.physics.control import pid_step
+from ltdsim.physics.couplers import coupler_linear, coupler_simplified
+from ltdsim.physics.resistance import curve_resistance, davis_resistance, grade_resistance
+from ltdsim.physics.traction import adhesion_limit, traction_limit
+
+#: kernel return codes
+OK, NONFINITE = 0, 1
+#: columns of the recorded scalar signals
+S_TRACTION, S_VREF, S_ADHESION, S_ADEM = range(4)
+N_SCALARS = 4
+#: controller state: [PID integrator, PID filter, held demand m/s^2, last reference m/s]
+N_CTRL = 4
+
+
+@njit(cache=True, inline="always")
+def _segment(xs, x, hint):
+    """Index k of the segment ``xs[k] <= x < xs[k+1]`` (0 before the first point).
+
+    Starts from the previous answer ``hint``, so a slowly moving argument costs O(1).
+    The answer does not depend on the hint: it only speeds up the search.
+    """
+    k = hint
+    m = xs.shape[0]
+    while k + 1 < m and xs[k + 1] <= x:
+        k += 1
+    while k > 0 and xs[k] > x:
+        k -= 1
+    return k
+
+
+@njit(cache=True, inline="always")
+def _interp(xs, ys, x, hints, slot):
+    """Linear interpolation of ``(xs, ys)`` at ``x``, constant beyond the ends."""
+    k = _segment(xs, x, hints[slot])
+    hints[slot] = k
+    if x <= xs[0]:
+        return ys[0]
+    if k + 1 >= xs.shape[0]:
+        return ys[k]
+    w = (x - xs[k]) / (xs[k + 1] - xs[k])
+    return ys[k] + w * (ys[k + 1] - ys[k])
+
+
+@njit(cache=True, inline="always")
+def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac, drv,
+        prof_t, prof_y, dy, off, force, defl, res, sig, hints):
+    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + 2n]``.
+
+    Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
+    per vehicle, N) and ``sig[0:2]`` (traction force N, adhesion limit N). ``hints``
+    holds search cursors (``[0, n)`` track, ``n`` force and ``n + 1`` speed profile); they change
+    only how fast a lookup is, never its result.
+    """
+    n = veh.shape[0]
+    g = trac[T_G]
+    rtot = 0.0
+    for i in range(n):
+        v = y[n + i]
+        p = veh[i, V_P0] + y[i]
+        wm = veh[i, V_WMASS]
+        r = davis_resistance(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DV0])
+        kt = _segment(tpos, p, hints[i])
+        hints[i] = kt
+        r += grade_resistance(wm, tgrade[kt], g)
+        r += curve_resistance(v, wm, tcurv[kt], curve_h, g)
+        res[i] = r
+        rtot += r
+    vl = y[n + int(trac[T_REF])]
+    if drv[D_MODE] == MODE_SPEED:
+        fd = a_dem * trac[T_MTOT] + trac[T_FF] * rtot
+    else:
+        fd = _interp(prof_t, prof_y, t, hints, n)
+    lim = traction_limit(vl, trac[T_FMAX], trac[T_PMAX], trac[T_MADH], g)
+    ftr = min(max(fd, -lim), lim)
+    sig[0] = ftr
+    sig[1] = adhesion_limit(vl, trac[T_MADH], g)
+    for j in range(n - 1):
+        d = y[j] - y[j + 1] + cpl[j, P_D0]
+        dd = y[n + j] - y[n + j + 1]
+        if cpl_model[j] == C_LINEAR:
+            f = coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, P_STIFF], cpl[j, P_DAMP])
+        else:
+            f = coupler_simplified(d, dd, cpl[j, P_SLACK], cpl[j, P_PRELOAD], cpl[j, P_DAMP],
+                                   cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_VC])
+        force[j] = f
+        defl[j] = d
+    for i in range(n):
+        f = veh[i, V_SHARE] * ftr - res[i]
+        if i < n - 1:
+            f -= force[i]
+        if i > 0:
+            f += force[i - 1]
+        dy[off + i] = y[n + i]
+        dy[off + n + i] = f * inv_m[i]
+
+
+def work_size(n: int, stages: int) -> int:
+    """Length of the float work array :func:`run` needs for ``n`` vehicles."""
+    ny = 2 * n
+    return stages * ny + ny + 2 * max(n - 1, 1) + 2 * n + 2
+
+
+@njit(cache=True, _nrt=False)
+def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
+        veh, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y,
+        out_x, out_v, out_a, out_d, out_f, out_s, work, hints):
+    """Advance ``y`` from step ``k_start`` to ``k_stop`` (time ``k dt``), recording.
+
+    Records the state at every step that is a multiple of ``record_every`` (record
+    ``k // record_every``) and, when ``k_stop == n_steps``, the final state.
+    ``y`` and ``ctrl`` are updated in place so a run can be split into chunks.
+
+    ``work`` is a float array of :func:`work_size` elements and ``hints`` an int64 array
+    of ``n + 2`` zeros (search cursors), both owned by the caller.
+
+    Returns ``(status, k)``: ``OK`` and ``k_stop``, or ``NONFINITE`` and the step whose
+    result was not finite (``y`` then holds that state).
+    """
+    n = veh.shape[0]
+    ny = y.shape[0]
+    ns = B.shape[0]
+    nc = max(n - 1, 1)
+    # Work arrays are views into ``work`` (see work_size). The kernel is compiled
+    # without NRT, so views and array arguments cost no reference counting in the loop.
+    K = work[0:ns * ny]  # stage s occupies K[s * ny:(s + 1) * ny]
+    o = ns * ny
+    ytmp = work[o:o + ny]
+    o += ny
+    force = work[o:o + nc]
+    o += nc
+    defl = work[o:o + nc]
+    o += nc
+    res = work[o:o + n]
+    o += n
+    inv_m = work[o:o + n]
+    o += n
+    sig = work[o:o + 2]
+    for i in range(n):
+        inv_m[i] = 1.0 / veh[i, V_MASS]
+    speed_mode = drv[D_MODE] == MODE_SPEED
+    every = int(drv[D_EVERY])
+    ref = int(trac[T_REF])
+    kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
+    imeth, fmeth = int(drv[D_INT]), int(drv[D_FILT])
+    amax, dmax = trac[T_AMAX], trac[T_DMAX]
+    # counters instead of k % every: integer division is slow in the loop
+    c_ctrl = k_start % every
+    c_rec = k_start % record_every
+    for k in range(k_start, k_stop):
+        t = k * dt
+        if speed_mode and c_ctrl == 0:
+            vref = _interp(prof_t, prof_y, t, hints, n + 1)
+            u = pid_step(vref - y[n + ref], ctrl, kp, ki, kd, nf, ts, imeth, fmeth)
+            ctrl[2] = min(max(u, -dmax), amax)
+            ctrl[3] = vref
+        a_dem = ctrl[2]
+        # stage 1 is the right-hand side at (t_k, y_k): record it when due
+        rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac,
+            drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
+        if c_rec == 0:
+            _record(k // record_every, t, y, K, force, defl, sig, a_dem, speed_mode,
+                    prof_t, prof_y, hints, out_x, out_v, out_a, out_d, out_f, out_s)
+        for s in range(1, ns):
+            for q in range(ny):
+                ytmp[q] = y[q]
+            for j in range(s):
+                w = dt * A[s, j]
+                if w != 0.0:
+                    o = j * ny
+                    for q in range(ny):
+                        ytmp[q] += w * K[o + q]
+            rhs(t + C[s] * dt, ytmp, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade,
+                tcurv, curve_h, trac, drv, prof_t, prof_y, K, s * ny, force, defl, res, sig,
+                hints)
+        # y += dt * sum_s b_s K_s, increment summed first for accuracy
+        for q in range(ny):
+            ytmp[q] = 0.0
+        for s in range(ns):
+            w = dt * B[s]
+            o = s * ny
+            for q in range(ny):
+                ytmp[q] += w * K[o + q]
+        total = 0.0
+        for q in range(ny):
+            y[q] += ytmp[q]
+            total += y[q]
+        if not (total - total == 0.0):
+            return NONFINITE, k + 1
+        c_ctrl += 1
+        if c_ctrl == every:
+            c_ctrl = 0
+        c_rec += 1
+        if c_rec == record_every:
+            c_rec = 0
+    if k_stop == n_steps:
+        t = k_stop * dt
+        rhs(t, y, ctrl[2], veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac,
+            drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
+        _record(k_stop // record_every, t, y, K, force, defl, sig, ctrl[2], speed_mode,
+                prof_t, prof_y, hints, out_x, out_v, out_a, out_d, out_f, out_s)
+    return OK, k_stop
+
+
+@njit(cache=True, inline="always")
+def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hints,
+            out_x, out_v, out_a, out_d, out_f, out_s):
+    n = out_x.shape[1]
+    for i in range(n):
+        out_x[r, i] = y[i]
+        out_v[r, i] = y[n + i]
+        out_a[r, i] = dy[n + i]  # stage-1 derivatives sit at offset 0
+    for j in range(n - 1):
+        out_d[r, j] = defl[j]
+        out_f[r, j] = force[j]
+    out_s[r, S_TRACTION] = sig[0]
+    out_s[r, S_ADHESION] = sig[1]
+    if speed_mode:
+        out_s[r, S_VREF] = _interp(prof_t, prof_y, t, hints, n + 1)
+        out_s[r, S_ADEM] = a_dem
+    else:
+        out_s[r, S_VREF] = np.nan
+        out_s[r, S_ADEM] = np.nan

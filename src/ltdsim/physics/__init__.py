@@ -1,0 +1,22 @@
+"""Force laws of longitudinal train dynamics as pure functions.
+
+Every law is a numba ufunc: called from Python it broadcasts over numpy arrays, called
+from the compiled kernel it is inlined for scalars. All quantities are SI (m, s, kg, N, W).
+"""
+
+from ltdsim.physics.control import pid_init, pid_step
+from ltdsim.physics.couplers import coupler_linear, coupler_simplified
+from ltdsim.physics.resistance import curve_resistance, davis_resistance, grade_resistance
+from ltdsim.physics.traction import adhesion_limit, traction_limit
+
+__all__ = [
+    "adhesion_limit",
+    "coupler_linear",
+    "coupler_simplified",
+    "curve_resistance",
+    "davis_resistance",
+    "grade_resistance",
+    "pid_init",
+    "pid_step",
+    "traction_limit",
+]

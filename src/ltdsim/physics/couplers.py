@@ -1,0 +1,101 @@
+"""Coupler (draft gear) force laws.
+
+Coupler ``i`` joins vehicle ``i`` and ``i + 1`` (0 = lead). Its deflection is
+``d = x_i - x_(i+1)`` measured from the neutral position, positive in draft (train
+stretched), negative in buff (bunched). The force is positive in tension.
+
+Free play: a coupling with total slack ``s`` carries no force while ``|d| <= s / 2``.
+Outside it the gear deflection is ``e = d - sign(d) s / 2`` and ``de/dt = dd/dt``.
+With slack, the two sides are in unilateral contact: a gear in draft can only pull
+(``T >= 0``) and a gear in buff can only push (``T <= 0``), so a damper cannot glue
+separating faces together. Without slack the coupling is a continuous spring-damper.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import vectorize
+
+
+@vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
+def coupler_linear(d, dd, slack, stiffness, damping):
+    """Linear spring-damper coupler with a slack dead band, N (+ tension).
+
+    ``T = k e + c de/dt`` outside the dead band, 0 inside it.
+
+    Parameters
+    ----------
+    d : float or array
+        Coupler deflection from neutral, m (+ draft).
+    dd : float or array
+        Deflection rate, m/s.
+    slack : float
+        Total free play, m.
+    stiffness : float
+        Spring stiffness ``k``, N/m.
+    damping : float
+        Viscous damping ``c``, N s/m.
+    """
+    h = 0.5 * slack
+    if d > h:
+        f = stiffness * (d - h) + damping * dd
+        if slack > 0.0 and f < 0.0:
+            f = 0.0
+        return f
+    if d < -h:
+        f = stiffness * (d + h) + damping * dd
+        if slack > 0.0 and f > 0.0:
+            f = 0.0
+        return f
+    return 0.0
+
+
+@vectorize(
+    ["float64(float64, float64, float64, float64, float64, float64, float64, float64, float64)"],
+    cache=True,
+)
+def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
+    """The study's simplified nonlinear coupler (paper Eq. 9, reading of MODEL.md §2), N.
+
+    Draft (``e > 0``): ``T = P + (k3 + k2 exp(-|de/dt| / v_c)) e + b de/dt``.
+    Buff (``e < 0``): ``T = -P + k1 e + b de/dt``. Zero inside the dead band.
+
+    The nonlinear stiffness ``k2`` fades as the gear slides faster, like the
+    static-to-kinetic friction law; ``|de/dt|`` keeps it from feeding energy in.
+
+    Parameters
+    ----------
+    d : float or array
+        Coupler deflection from neutral, m (+ draft).
+    dd : float or array
+        Deflection rate, m/s.
+    slack : float
+        Total coupling clearance ``epsilon``, m.
+    preload : float
+        Gear preload ``P``, N.
+    damping : float
+        Damping ``b``, N s/m.
+    k1 : float
+        Recoil (buff) stiffness, N/m.
+    k2 : float
+        Nonlinear (draft) stiffness, N/m.
+    k3 : float
+        Linear (draft) stiffness, N/m.
+    v_c : float
+        Critical velocity, m/s.
+    """
+    h = 0.5 * slack
+    if d > h:
+        e = d - h
+        f = preload + (k3 + k2 * math.exp(-abs(dd) / v_c)) * e + damping * dd
+        if slack > 0.0 and f < 0.0:
+            f = 0.0
+        return f
+    if d < -h:
+        e = d + h
+        f = -preload + k1 * e + damping * dd
+        if slack > 0.0 and f > 0.0:
+            f = 0.0
+        return f
+    return 0.0

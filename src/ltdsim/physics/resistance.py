@@ -1,0 +1,99 @@
+"""Running resistances of a rail vehicle (paper Eq. 11-14).
+
+Sign convention: a returned force is positive when it acts *against* the direction of
+travel (the +x direction, front of the train). It is subtracted from the vehicle's
+force balance ``m a = F_traction - F_resist - T_i + T_(i-1)``.
+"""
+
+from __future__ import annotations
+
+from numba import vectorize
+
+_F8_3 = ["float64(float64, float64, float64)"]
+_F8_5 = ["float64(float64, float64, float64, float64, float64)"]
+
+
+@vectorize(_F8_5, cache=True)
+def davis_resistance(v, a, b, c, v0):
+    """Propulsion (rolling plus aerodynamic) resistance by the Davis formula, N.
+
+    ``F = a sat(v / v0) + b v + c v |v|`` (paper Eq. 12), so that it always opposes
+    motion and is zero at standstill. ``sat`` clips to [-1, 1]: below the standstill
+    speed ``v0`` the constant term fades linearly to zero, the usual regularisation of
+    the sign function, so that a vehicle at rest does not chatter between +a and -a.
+    ``v0 = 0`` gives the pure sign.
+
+    Parameters
+    ----------
+    v : float or array
+        Vehicle speed, m/s (+ forwards).
+    a : float
+        Constant term, N.
+    b : float
+        Linear term, N s/m.
+    c : float
+        Quadratic (aerodynamic) term, N s^2/m^2.
+    v0 : float
+        Standstill speed below which the constant term is scaled down, m/s.
+    """
+    s = abs(v)
+    if s == 0.0:
+        return 0.0
+    if s >= v0:
+        f = a
+    else:
+        f = a * s / v0
+    f = f + b * s + c * s * s
+    if v < 0.0:
+        return -f
+    return f
+
+
+@vectorize(_F8_3, cache=True)
+def grade_resistance(mass, grade, g):
+    """Gravitational component along a grade, N (paper Eq. 13).
+
+    ``F = m g grade`` with ``grade`` the rise over run (a grade "1 : kappa" is
+    ``1 / kappa``; 0.005 is 0.5 %). Positive uphill, so it resists forward motion on a
+    climb and pushes the vehicle forward on a descent. The paper's small-slope form is
+    kept (``sin(atan(grade)) ~ grade`` to 1e-5 relative below 0.5 %).
+
+    Parameters
+    ----------
+    mass : float or array
+        Mass whose weight acts on the grade (the static mass), kg.
+    grade : float or array
+        Rise over run, dimensionless, + uphill in the direction of travel.
+    g : float
+        Gravitational acceleration, m/s^2.
+    """
+    return mass * g * grade
+
+
+@vectorize(_F8_5, cache=True)
+def curve_resistance(v, mass, curvature, h, g):
+    """Curving resistance, N (paper Eq. 14).
+
+    The specific resistance ``h / R`` is read as newtons per kilonewton of weight
+    (MODEL.md §5), so ``F = m g h / (1000 R) = m g h curvature / 1000``, opposing motion
+    and zero at standstill.
+
+    Parameters
+    ----------
+    v : float or array
+        Vehicle speed, m/s (only its sign is used).
+    mass : float or array
+        Static mass of the vehicle, kg.
+    curvature : float or array
+        Track curvature ``1 / R`` at the vehicle, 1/m (0 on straight track).
+    h : float
+        Dimensionless curve-resistance constant (500-1200; 540 in the study).
+    g : float
+        Gravitational acceleration, m/s^2.
+    """
+    f = mass * g * h * abs(curvature) / 1000.0
+    if v > 0.0:
+        return f
+    if v < 0.0:
+        return -f
+    return 0.0

@@ -1,0 +1,58 @@
+"""Traction and dynamic-brake limits of a locomotive (paper §4, Eq. 15-16)."""
+
+from __future__ import annotations
+
+from numba import vectorize
+
+#: Curtius-Kniffler adhesion coefficient ``mu = C0 + C1 / (v_kmh + C2)``.
+CURTIUS_KNIFFLER = (0.161, 7.5, 44.0)
+_C0, _C1, _C2 = CURTIUS_KNIFFLER
+
+
+@vectorize(["float64(float64, float64, float64)"], cache=True)
+def adhesion_limit(v, adhesion_mass, g):
+    """Largest tractive (or braking) force the wheel-rail contact transmits, N.
+
+    Curtius-Kniffler (paper Eq. 15): ``F = m_adh g (0.161 + 7.5 / (v_kmh + 44))``
+    with ``v_kmh = 3.6 |v|``.
+
+    Parameters
+    ----------
+    v : float or array
+        Locomotive speed, m/s.
+    adhesion_mass : float
+        Mass on the driven wheels, kg (the study uses the whole train's static mass).
+    g : float
+        Gravitational acceleration, m/s^2.
+    """
+    return adhesion_mass * g * (_C0 + _C1 / (3.6 * abs(v) + _C2))
+
+
+@vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
+def traction_limit(v, max_force, max_power, adhesion_mass, g):
+    """Traction curve: the largest force magnitude available at speed ``v``, N.
+
+    ``min(F_max, P_max / |v|, F_adhesion(v))`` (paper §4). Dynamic braking mirrors it:
+    the braking force is limited by the same value.
+
+    Parameters
+    ----------
+    v : float or array
+        Locomotive speed, m/s.
+    max_force : float
+        Force limit ``F_max``, N.
+    max_power : float
+        Power limit ``P_max = F_max v_Pmax``, W.
+    adhesion_mass : float
+        Mass on the driven wheels, kg.
+    g : float
+        Gravitational acceleration, m/s^2.
+    """
+    f = max_force
+    s = abs(v)
+    if s * f > max_power:
+        f = max_power / s
+    fa = adhesion_limit(s, adhesion_mass, g)
+    if fa < f:
+        f = fa
+    return f

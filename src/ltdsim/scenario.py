@@ -1,0 +1,458 @@
+"""Scenario files: TOML in, a validated :class:`Scenario` out.
+
+Every key is documented with its unit in ``docs/scenario.md``. Validation happens at
+load time: an unknown key, a value out of range, a NaN, an empty train, an output
+interval that is not a whole multiple of the step, an override that points nowhere or
+an unknown case raises one :class:`~ltdsim.errors.ScenarioError` naming the file, the
+dotted key and the allowed values.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+import types
+import typing
+from pathlib import Path
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from ltdsim.errors import ScenarioError
+
+# Physical sanity bounds used in validation (documented in docs/scenario.md).
+MAX_MASS = 1.0e6  # kg, one vehicle
+MAX_LENGTH = 100.0  # m, one vehicle
+MAX_VEHICLES = 20_000
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
+
+
+Points = list[tuple[float, float]]
+
+
+def _check_breakpoints(points: Points, what: str) -> Points:
+    if len(points) == 0:
+        raise ValueError(f"{what} needs at least one [x, y] point")
+    xs = [p[0] for p in points]
+    if any(b <= a for a, b in zip(xs, xs[1:])):
+        raise ValueError(f"{what}: the first column must be strictly increasing, got {xs}")
+    return points
+
+
+class Solver(_Strict):
+    """Integration settings."""
+
+    method: Literal["euler", "heun", "ode3", "rk4"] = "ode3"
+    dt: float = Field(1e-4, gt=0.0, le=1.0, description="step, s")
+    t_end: float = Field(gt=0.0, le=1e7, description="end time, s")
+    output_interval: float = Field(1e-3, gt=0.0, description="recording interval, s")
+
+    @model_validator(mode="after")
+    def _multiples(self):
+        ratio = self.output_interval / self.dt
+        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
+            raise ValueError(
+                f"output_interval ({self.output_interval:g} s) must be a whole multiple "
+                f"of dt ({self.dt:g} s)"
+            )
+        if self.t_end < self.output_interval:
+            raise ValueError(f"t_end ({self.t_end:g} s) must be at least output_interval "
+                             f"({self.output_interval:g} s)")
+        return self
+
+    @property
+    def record_every(self) -> int:
+        """Steps between two recorded samples."""
+        return int(round(self.output_interval / self.dt))
+
+    @property
+    def n_steps(self) -> int:
+        """Number of steps: t_end rounded down to a whole number of output intervals."""
+        n_rec = int(math.floor(self.t_end / self.output_interval + 1e-9))
+        return n_rec * self.record_every
+
+
+class Davis(_Strict):
+    """Davis resistance coefficients ``F = a + b v + c v^2``."""
+
+    a: float = Field(0.0, ge=0.0, le=1e6, description="N")
+    b: float = Field(0.0, ge=0.0, le=1e6, description="N s/m")
+    c: float = Field(0.0, ge=0.0, le=1e5, description="N s^2/m^2")
+    v0: float = Field(0.01, ge=0.0, le=1.0, description="standstill speed, m/s")
+
+
+class Vehicle(_Strict):
+    """One vehicle, or ``count`` identical ones, front to rear."""
+
+    name: str = Field(min_length=1)
+    count: int = Field(1, ge=1, le=MAX_VEHICLES)
+    mass: float = Field(gt=0.0, le=MAX_MASS, description="dynamic mass, kg")
+    static_mass: float | None = Field(None, gt=0.0, le=MAX_MASS,
+                                      description="mass whose weight acts, kg")
+    length: float = Field(gt=0.0, le=MAX_LENGTH, description="over couplers, m")
+    davis: Davis = Davis()
+    powered: bool = False
+
+    @property
+    def weight_mass(self) -> float:
+        """Mass used for grade and curve resistance, kg."""
+        return self.mass if self.static_mass is None else self.static_mass
+
+
+_COUPLER_MODELS = ("linear", "simplified")
+_REQUIRED = {"linear": ("stiffness",), "simplified": ("k1", "k3", "v_c")}
+
+
+class CouplerParams(_Strict):
+    """Parameters of one coupler (draft gear and slack)."""
+
+    model: Literal["linear", "simplified"] = "simplified"
+    slack: float = Field(0.0, ge=0.0, le=1.0, description="total free play, m")
+    preload: float = Field(0.0, ge=0.0, le=1e7, description="N")
+    damping: float = Field(0.0, ge=0.0, le=1e9, description="N s/m")
+    stiffness: float | None = Field(None, gt=0.0, le=1e12, description="linear model, N/m")
+    k1: float | None = Field(None, gt=0.0, le=1e12, description="recoil, N/m")
+    k2: float = Field(0.0, ge=0.0, le=1e12, description="nonlinear, N/m")
+    k3: float | None = Field(None, gt=0.0, le=1e12, description="linear, N/m")
+    v_c: float | None = Field(None, gt=0.0, le=1e3, description="critical velocity, m/s")
+
+    @model_validator(mode="after")
+    def _complete(self):
+        missing = [k for k in _REQUIRED[self.model] if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"model {self.model!r} needs {', '.join(missing)}")
+        return self
+
+
+class CouplerOverride(_Strict):
+    """Keys of coupler ``index`` that differ from the default."""
+
+    index: int = Field(ge=0, description="coupler index, 0 joins vehicles 0 and 1")
+    model: Literal["linear", "simplified"] | None = None
+    slack: float | None = Field(None, ge=0.0, le=1.0)
+    preload: float | None = Field(None, ge=0.0, le=1e7)
+    damping: float | None = Field(None, ge=0.0, le=1e9)
+    stiffness: float | None = Field(None, gt=0.0, le=1e12)
+    k1: float | None = Field(None, gt=0.0, le=1e12)
+    k2: float | None = Field(None, ge=0.0, le=1e12)
+    k3: float | None = Field(None, gt=0.0, le=1e12)
+    v_c: float | None = Field(None, gt=0.0, le=1e3)
+
+
+class Couplers(_Strict):
+    default: CouplerParams
+    override: list[CouplerOverride] = []
+
+
+class Track(_Strict):
+    """Track as piecewise-constant functions of position along the line."""
+
+    gradient: Points = Field(default_factory=lambda: [(0.0, 0.0)],
+                             description="[start m, rise/run]")
+    curve: Points = Field(default_factory=lambda: [(0.0, 0.0)],
+                          description="[start m, radius m], 0 = straight")
+    curve_h: float = Field(540.0, ge=0.0, le=5000.0, description="curve constant, -")
+    gravity: float = Field(9.81, ge=9.7, le=9.9, description="m/s^2")
+
+    @field_validator("gradient")
+    @classmethod
+    def _grades(cls, v):
+        _check_breakpoints(v, "gradient")
+        bad = [g for _, g in v if abs(g) > 0.1]
+        if bad:
+            raise ValueError(f"grades must lie in [-0.1, 0.1] (rise/run), got {bad}")
+        return v
+
+    @field_validator("curve")
+    @classmethod
+    def _curves(cls, v):
+        _check_breakpoints(v, "curve")
+        bad = [r for _, r in v if r != 0.0 and not (20.0 <= abs(r) <= 1e6)]
+        if bad:
+            raise ValueError(f"radii must be 0 (straight) or 20-1e6 m in magnitude, got {bad}")
+        return v
+
+
+class Traction(_Strict):
+    """Traction curve and acceleration limits of the driving locomotives (together)."""
+
+    max_force: float = Field(gt=0.0, le=1e8, description="N")
+    max_power: float = Field(gt=0.0, le=1e9, description="W")
+    adhesion_mass: float = Field(gt=0.0, le=1e8, description="kg")
+    max_accel: float = Field(0.976, gt=0.0, le=10.0, description="m/s^2")
+    max_decel: float = Field(0.976, gt=0.0, le=10.0, description="m/s^2")
+    feedforward: bool = Field(True, description="add the train's resistance to the demand")
+
+
+class PID(_Strict):
+    """Discrete PID in parallel form; output = demanded acceleration."""
+
+    kp: float = Field(ge=0.0, le=1e6, description="1/s")
+    ki: float = Field(0.0, ge=0.0, le=1e6, description="1/s^2")
+    kd: float = Field(0.0, ge=0.0, le=1e6, description="-")
+    n: float = Field(100.0, gt=0.0, le=1e6, description="filter coefficient, 1/s")
+    ts: float = Field(1e-4, gt=0.0, le=10.0, description="sample time, s")
+    integrator: Literal["forward_euler", "backward_euler"] = "forward_euler"
+    filter: Literal["forward_euler", "backward_euler"] = "backward_euler"
+
+
+class Driver(_Strict):
+    mode: Literal["speed", "force"] = "speed"
+    speed_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
+                                  description="[t s, v m/s]")
+    pid: PID | None = None
+    force_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
+                                  description="[t s, F N]")
+
+    @field_validator("speed_profile")
+    @classmethod
+    def _speeds(cls, v):
+        _check_breakpoints(v, "speed_profile")
+        bad = [s for _, s in v if not 0.0 <= s <= 150.0]
+        if bad:
+            raise ValueError(f"speeds must lie in [0, 150] m/s, got {bad}")
+        return v
+
+    @field_validator("force_profile")
+    @classmethod
+    def _forces(cls, v):
+        _check_breakpoints(v, "force_profile")
+        bad = [f for _, f in v if abs(f) > 1e8]
+        if bad:
+            raise ValueError(f"forces must lie in [-1e8, 1e8] N, got {bad}")
+        return v
+
+    @model_validator(mode="after")
+    def _pid_needed(self):
+        if self.mode == "speed" and self.pid is None:
+            raise ValueError("mode 'speed' needs a [driver.pid] table (kp, ki, kd, n, ts)")
+        return self
+
+
+class Initial(_Strict):
+    """Initial state of the train."""
+
+    speed: float = Field(0.0, ge=0.0, le=150.0, description="all vehicles, m/s")
+    couplers: Literal["neutral", "stretched", "bunched"] = "neutral"
+
+
+CaseOverrides = dict[str, Any]
+
+
+class Scenario(_Strict):
+    """A validated scenario. Build it with :func:`load_scenario` or :meth:`from_dict`."""
+
+    name: str = "scenario"
+    description: str = ""
+    solver: Solver
+    vehicles: list[Vehicle] = Field(min_length=1)
+    couplers: Couplers | None = None
+    track: Track = Track()
+    traction: Traction
+    driver: Driver = Driver(mode="force")
+    initial: Initial = Initial()
+    cases: dict[str, CaseOverrides] = {}
+    case: str | None = Field(None, description="name of the applied case, if any")
+
+    @field_validator("vehicles")
+    @classmethod
+    def _expand(cls, vehicles: list[Vehicle]) -> list[Vehicle]:
+        total = sum(v.count for v in vehicles)
+        if total > MAX_VEHICLES:
+            raise ValueError(f"at most {MAX_VEHICLES} vehicles, got {total}")
+        out = []
+        for v in vehicles:
+            out.extend(v.model_copy(update={"count": 1}) for _ in range(v.count))
+        return out
+
+    @model_validator(mode="after")
+    def _consistency(self):
+        n = len(self.vehicles)
+        if not any(v.powered for v in self.vehicles):
+            raise ValueError("vehicles: at least one vehicle needs powered = true")
+        if n > 1 and self.couplers is None:
+            raise ValueError("a train of more than one vehicle needs [couplers.default]")
+        pid = self.driver.pid
+        if self.driver.mode == "speed" and pid is not None:
+            ratio = pid.ts / self.solver.dt
+            if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
+                raise ValueError(f"driver.pid.ts ({pid.ts:g} s) must be a whole multiple of "
+                                 f"solver.dt ({self.solver.dt:g} s)")
+        if self.couplers is not None:
+            for k, o in enumerate(self.couplers.override):
+                if o.index > n - 2:
+                    raise ValueError(
+                        f"couplers.override.{k}.index = {o.index} is out of range: "
+                        f"{n} vehicles have couplers 0 to {n - 2}")
+            for i in range(n - 1):
+                try:
+                    self.coupler(i)  # validates merged parameters
+                except ValidationError as exc:
+                    text = "; ".join(m for _, m in _problems(exc))
+                    raise ValueError(f"coupler {i} (default merged with overrides): {text}") from None
+        return self
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def n_vehicles(self) -> int:
+        return len(self.vehicles)
+
+    @property
+    def n_couplers(self) -> int:
+        return len(self.vehicles) - 1
+
+    def coupler(self, i: int) -> CouplerParams:
+        """Parameters of coupler ``i`` (default merged with its overrides)."""
+        assert self.couplers is not None
+        params = self.couplers.default.model_dump()
+        for o in self.couplers.override:
+            if o.index == i:
+                params.update(o.model_dump(exclude_none=True, exclude={"index"}))
+        return CouplerParams.model_validate(params)
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str = "<dict>") -> "Scenario":
+        """Validate a plain dictionary (as read from TOML) into a Scenario."""
+        try:
+            return cls.model_validate(data)
+        except ValidationError as exc:
+            raise ScenarioError(source, _problems(exc)) from None
+
+    def to_dict(self) -> dict:
+        """Plain-data form (vehicles expanded, one entry each)."""
+        return self.model_dump(mode="json")
+
+    def with_overrides(self, overrides: dict[str, Any], source: str = "override") -> "Scenario":
+        """Return a copy with dotted-key overrides applied and validated.
+
+        Keys address the expanded form: ``"couplers.default.k3"``, ``"solver.t_end"``,
+        ``"vehicles.3.mass"`` (vehicle 3, lead = 0), ``"driver.pid.kp"``.
+        """
+        data = self.to_dict()
+        for key, value in overrides.items():
+            _set_dotted(data, key, value, source)
+        return Scenario.from_dict(data, source)
+
+    def with_case(self, name: str, source: str = "scenario") -> "Scenario":
+        """Return a copy with the named case's overrides applied."""
+        if name not in self.cases:
+            avail = ", ".join(sorted(self.cases)) or "none defined"
+            raise ScenarioError(source, [("case", f"unknown case {name!r}; available: {avail}")])
+        out = self.with_overrides(self.cases[name], source=f"{source} [cases.{name}]")
+        return out.model_copy(update={"case": name})
+
+
+# ---------------------------------------------------------------------- loading
+def load_scenario(path: str | Path, case: str | None = None) -> Scenario:
+    """Read, validate and return the scenario in TOML file ``path``.
+
+    Every named case under ``[cases.*]`` is validated too, so a bad case key fails at
+    load time. With ``case`` given, that case's overrides are applied.
+
+    Raises
+    ------
+    ScenarioError
+        With the file name, the dotted key and the allowed range for each problem.
+    """
+    path = Path(path)
+    source = str(path)
+    try:
+        with path.open("rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise ScenarioError(source, [("", "file not found")]) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(source, [("", f"not valid TOML: {exc}")]) from None
+    scenario = Scenario.from_dict(data, source)
+    for name in scenario.cases:
+        scenario.with_case(name, source)
+    if case is not None:
+        scenario = scenario.with_case(case, source)
+    return scenario
+
+
+def _set_dotted(data: dict, key: str, value: Any, source: str) -> None:
+    parts = key.split(".")
+    node: Any = data
+    for depth, part in enumerate(parts):
+        last = depth == len(parts) - 1
+        where = ".".join(parts[: depth + 1])
+        if isinstance(node, list):
+            if not part.lstrip("-").isdigit():
+                raise ScenarioError(source, [(key, f"{where!r}: expected an index 0-{len(node) - 1}")])
+            idx = int(part)
+            if not 0 <= idx < len(node):
+                raise ScenarioError(source, [(key, f"index {idx} out of range 0-{len(node) - 1}")])
+            if last:
+                node[idx] = value
+            else:
+                node = node[idx]
+        elif isinstance(node, dict):
+            if last:
+                node[part] = value  # unknown keys are caught by validation
+            else:
+                if node.get(part) is None:
+                    node[part] = {}
+                node = node[part]
+        else:
+            raise ScenarioError(source, [(key, f"{'.'.join(parts[:depth])!r} is a value, not a table")])
+
+
+# ------------------------------------------------------------------ error text
+def _problems(exc: ValidationError) -> list[tuple[str, str]]:
+    out = []
+    for err in exc.errors():
+        loc = [str(p) for p in err["loc"] if not _is_internal(p)]
+        key = ".".join(loc)
+        msg = err["msg"]
+        if err["type"] == "extra_forbidden":
+            allowed = _allowed_keys(err["loc"][:-1])
+            msg = f"unknown key {loc[-1]!r}" + (f"; allowed: {', '.join(allowed)}" if allowed else "")
+        elif err["type"] == "missing":
+            msg = "required key is missing"
+        elif msg.startswith("Value error, "):
+            msg = msg[len("Value error, "):]
+        if err["type"] in ("finite_number",):
+            msg = "must be a finite number (NaN and inf are not allowed)"
+        if "input" in err and err["type"] not in ("missing", "extra_forbidden") and not isinstance(
+                err["input"], (dict, list)):
+            msg += f" (got {err['input']!r})"
+        out.append((key, msg))
+    return out
+
+
+def _is_internal(part) -> bool:
+    # pydantic adds the names of union members / tagged types to locations
+    return isinstance(part, str) and ("[" in part or part.startswith("function-"))
+
+
+def _model_of(annotation):
+    """The BaseModel class inside an annotation (through Optional, list, dict)."""
+    origin = typing.get_origin(annotation)
+    if origin is Annotated:
+        return _model_of(typing.get_args(annotation)[0])
+    if origin in (Union, types.UnionType, list, dict):
+        for arg in typing.get_args(annotation):
+            m = _model_of(arg)
+            if m is not None:
+                return m
+        return None
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    return None
+
+
+def _allowed_keys(loc) -> list[str]:
+    cls: Any = Scenario
+    for part in loc:
+        if isinstance(part, int) or _is_internal(part):
+            continue
+        if cls is None or part not in cls.model_fields:
+            return []
+        cls = _model_of(cls.model_fields[part].annotation)
+    if cls is None:
+        return []
+    return [k for k in cls.model_fields if k != "case"]

@@ -1,0 +1,198 @@
+"""Run a scenario through the compiled kernel and return a labelled ``xarray.Dataset``."""
+
+from __future__ import annotations
+
+import json
+import time as _time
+from collections.abc import Callable
+
+import numpy as np
+import xarray as xr
+
+from ltdsim import kernel
+from ltdsim.errors import SimulationError
+from ltdsim.lowering import P_D0, T_REF, V_P0, Lowered, lower
+from ltdsim.scenario import Scenario
+
+#: Units of every variable in the result dataset.
+UNITS = {
+    "time": "s",
+    "position": "m",
+    "velocity": "m/s",
+    "acceleration": "m/s^2",
+    "relative_position": "m",
+    "relative_velocity": "m/s",
+    "coupler_deflection": "m",
+    "coupler_force": "N",
+    "traction_force": "N",
+    "speed_reference": "m/s",
+    "speed_error": "m/s",
+    "adhesion_limit": "N",
+    "demanded_acceleration": "m/s^2",
+}
+
+DESCRIPTIONS = {
+    "position": "track position of the vehicle centre (lead vehicle starts at 0)",
+    "velocity": "vehicle speed, + forwards",
+    "acceleration": "vehicle acceleration",
+    "relative_position": "position relative to the lead vehicle's, minus the initial offset "
+                         "(x_i - x_0)",
+    "relative_velocity": "velocity relative to the lead vehicle (v_i - v_0)",
+    "coupler_deflection": "coupler deflection from neutral, + draft (stretched)",
+    "coupler_force": "coupler force, + tension (draft), - compression (buff)",
+    "traction_force": "total traction (+) or dynamic-brake (-) force of the powered vehicles",
+    "speed_reference": "reference speed of the speed controller",
+    "speed_error": "reference minus measured speed of the lead powered vehicle",
+    "adhesion_limit": "Curtius-Kniffler adhesion limit at the lead powered vehicle's speed",
+    "demanded_acceleration": "speed controller output after the acceleration limits",
+}
+
+ProgressFn = Callable[[float, float], None]
+
+
+def simulate(scenario: Scenario, progress: ProgressFn | None = None,
+             chunks: int = 100) -> xr.Dataset:
+    """Simulate ``scenario`` and return its time series.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A validated scenario (see :func:`ltdsim.load_scenario`).
+    progress : callable, optional
+        Called as ``progress(t_done, t_end)`` in seconds of simulated time after each
+        chunk of steps.
+    chunks : int
+        Number of kernel calls the run is split into (for progress and Ctrl-C).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``position``, ``velocity``, ``acceleration``, ``relative_position``,
+        ``relative_velocity`` (time x vehicle); ``coupler_deflection``,
+        ``coupler_force`` (time x coupler); ``traction_force``, ``speed_reference``,
+        ``speed_error``, ``adhesion_limit``, ``demanded_acceleration`` (time). Units are
+        in each variable's ``units`` attribute; the scenario (JSON) and run facts are in
+        the dataset's attributes.
+
+    Raises
+    ------
+    SimulationError
+        If the state becomes non-finite; the message names the time, the vehicle and
+        coupler, and their values.
+    """
+    low = lower(scenario)
+    wall0 = _time.perf_counter()
+    y, rec = _integrate(low, scenario, progress, chunks)
+    wall = _time.perf_counter() - wall0
+    return _dataset(scenario, low, rec, wall)
+
+
+def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
+    n = low.n
+    nc = max(n - 1, 0)
+    n_rec = low.n_steps // low.record_every + 1
+    rec = {
+        "x": np.empty((n_rec, n)), "v": np.empty((n_rec, n)), "a": np.empty((n_rec, n)),
+        "d": np.empty((n_rec, nc)), "f": np.empty((n_rec, nc)),
+        "s": np.empty((n_rec, kernel.N_SCALARS)),
+    }
+    y = low.y0.copy()
+    ctrl = np.zeros(kernel.N_CTRL)
+    tab = low.tableau
+    work = np.zeros(kernel.work_size(n, tab.stages))
+    hints = np.zeros(n + 2, dtype=np.int64)
+    # chunk boundaries on whole output intervals
+    per = max(1, (n_rec - 1) // max(chunks, 1)) * low.record_every
+    k = 0
+    while True:
+        k_stop = min(k + per, low.n_steps)
+        status, k_end = kernel.run(
+            y, ctrl, k, k_stop, low.n_steps, low.record_every, low.dt, tab.A, tab.b, tab.c,
+            low.veh, low.cpl_model, low.cpl, low.track_pos, low.track_grade, low.track_curv,
+            low.curve_h, low.trac, low.drv, low.prof_t, low.prof_y,
+            rec["x"], rec["v"], rec["a"], rec["d"], rec["f"], rec["s"], work, hints)
+        if status != kernel.OK:
+            raise _nonfinite_error(scenario, low, y, k_end)
+        k = k_stop
+        if progress is not None:
+            progress(k * low.dt, low.n_steps * low.dt)
+        if k >= low.n_steps:
+            break
+    return y, rec
+
+
+def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, k: int) -> SimulationError:
+    n = low.n
+    t = k * low.dt
+    x, v = y[:n], y[n:]
+    bad = np.flatnonzero(~(np.isfinite(x) & np.isfinite(v)))
+    i = int(bad[0]) if bad.size else None
+    parts = [f"simulation state became non-finite at t = {t:.6g} s (step {k})"]
+    if i is not None:
+        parts.append(f"vehicle {i} ({scenario.vehicles[i].name!r}): displacement = {x[i]:.6g} m, "
+                     f"velocity = {v[i]:.6g} m/s")
+    j = None
+    if n > 1:
+        d = x[:-1] - x[1:] + low.cpl[:, P_D0]
+        badc = np.flatnonzero(~np.isfinite(d))
+        if badc.size:
+            j = int(badc[0])
+            parts.append(f"coupler {j} (vehicles {j}-{j + 1}): deflection = {d[j]:.6g} m")
+    parts.append("hint: reduce solver.dt, or check stiffness and damping against the masses")
+    return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
+
+
+def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float) -> xr.Dataset:
+    n = low.n
+    n_rec = rec["x"].shape[0]
+    time = np.arange(n_rec) * (low.record_every * low.dt)
+    p0 = low.veh[:, V_P0]
+    position = rec["x"] + p0
+    vel = rec["v"]
+    ref = int(low.trac[T_REF])
+    s = rec["s"]
+    vdims = ("time", "vehicle")
+    cdims = ("time", "coupler")
+    data = {
+        "position": (vdims, position),
+        "velocity": (vdims, vel),
+        "acceleration": (vdims, rec["a"]),
+        "relative_position": (vdims, rec["x"] - rec["x"][:, :1]),
+        "relative_velocity": (vdims, vel - vel[:, :1]),
+        "coupler_deflection": (cdims, rec["d"]),
+        "coupler_force": (cdims, rec["f"]),
+        "traction_force": ("time", s[:, kernel.S_TRACTION]),
+        "speed_reference": ("time", s[:, kernel.S_VREF]),
+        "speed_error": ("time", s[:, kernel.S_VREF] - vel[:, ref]),
+        "adhesion_limit": ("time", s[:, kernel.S_ADHESION]),
+        "demanded_acceleration": ("time", s[:, kernel.S_ADEM]),
+    }
+    coords = {
+        "time": ("time", time),
+        "vehicle": ("vehicle", np.arange(n)),
+        "vehicle_name": ("vehicle", [v.name for v in scenario.vehicles]),
+        "coupler": ("coupler", np.arange(n - 1)),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    for name, unit in UNITS.items():
+        if name in ds:
+            ds[name].attrs["units"] = unit
+            if name in DESCRIPTIONS:
+                ds[name].attrs["long_name"] = DESCRIPTIONS[name]
+    ds["coupler"].attrs["long_name"] = "coupler i joins vehicle i and i + 1 (0 = lead)"
+    ds["vehicle"].attrs["long_name"] = "vehicle index, 0 = lead, front to rear"
+    from ltdsim import __version__
+
+    ds.attrs.update({
+        "title": f"ltdsim result: {scenario.name}" + (f" case {scenario.case}" if scenario.case else ""),
+        "ltdsim_version": __version__,
+        "scenario_name": scenario.name,
+        "case": scenario.case or "",
+        "solver_method": scenario.solver.method,
+        "solver_dt_s": scenario.solver.dt,
+        "steps": low.n_steps,
+        "wall_time_s": wall,
+        "scenario_json": json.dumps(scenario.to_dict()),
+        "conventions": "SI units; coupler force + tension; vehicle 0 is the lead",
+    })
+    return ds
