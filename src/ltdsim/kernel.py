@@ -68,7 +68,7 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, t
     """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + 2n]``.
 
     Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
-    per vehicle, N) and ``sig[0:2]`` (traction force N, adhesion limit N). ``hints``
+    per vehicle, N) and ``sig[0:2]`` (traction force N, speed of the reference vehicle m/s). ``hints``
     holds search cursors (``[0, n)`` track, ``n`` force and ``n + 1`` speed profile); they change
     only how fast a lookup is, never its result.
     """
@@ -94,7 +94,7 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, t
     lim = traction_limit(vl, trac[T_FMAX], trac[T_PMAX], trac[T_MADH], g)
     ftr = min(max(fd, -lim), lim)
     sig[0] = ftr
-    sig[1] = adhesion_limit(vl, trac[T_MADH], g)
+    sig[1] = vl
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
@@ -180,7 +180,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
             drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
         if c_rec == 0:
             _record(k // record_every, t, y, K, force, defl, sig, a_dem, speed_mode,
-                    prof_t, prof_y, hints, out_x, out_v, out_a, out_d, out_f, out_s)
+                    prof_t, prof_y, hints, trac, out_x, out_v, out_a, out_d, out_f, out_s)
         for s in range(1, ns):
             for q in range(ny):
                 ytmp[q] = y[q]
@@ -218,12 +218,12 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         rhs(t, y, ctrl[2], veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac,
             drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
         _record(k_stop // record_every, t, y, K, force, defl, sig, ctrl[2], speed_mode,
-                prof_t, prof_y, hints, out_x, out_v, out_a, out_d, out_f, out_s)
+                prof_t, prof_y, hints, trac, out_x, out_v, out_a, out_d, out_f, out_s)
     return OK, k_stop
 
 
 @njit(cache=True, inline="always")
-def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hints,
+def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hints, trac,
             out_x, out_v, out_a, out_d, out_f, out_s):
     n = out_x.shape[1]
     for i in range(n):
@@ -234,7 +234,7 @@ def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hi
         out_d[r, j] = defl[j]
         out_f[r, j] = force[j]
     out_s[r, S_TRACTION] = sig[0]
-    out_s[r, S_ADHESION] = sig[1]
+    out_s[r, S_ADHESION] = adhesion_limit(sig[1], trac[T_MADH], trac[T_G])
     if speed_mode:
         out_s[r, S_VREF] = _interp(prof_t, prof_y, t, hints, n + 1)
         out_s[r, S_ADEM] = a_dem

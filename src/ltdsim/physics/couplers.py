@@ -48,7 +48,9 @@ def coupler_linear(d, dd, slack, stiffness, damping):
         if slack > 0.0 and f > 0.0:
             f = 0.0
         return f
-    return 0.0
+    if slack > 0.0:
+        return 0.0
+    return damping * dd  # no slack and d == 0 exactly: only the damper acts
 
 
 @vectorize(
@@ -98,4 +100,6 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
         if slack > 0.0 and f > 0.0:
             f = 0.0
         return f
-    return 0.0
+    if slack > 0.0:
+        return 0.0
+    return damping * dd  # no slack and d == 0 exactly: only the damper acts

@@ -39,10 +39,11 @@ def davis_resistance(v, a, b, c, v0):
     s = abs(v)
     if s == 0.0:
         return 0.0
+    den = v0 if v0 > 1e-12 else 1.0  # never divide by ~zero, even speculatively
     if s >= v0:
         f = a
     else:
-        f = a * s / v0
+        f = a * (s / den)
     f = f + b * s + c * s * s
     if v < 0.0:
         return -f

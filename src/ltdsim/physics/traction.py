@@ -51,7 +51,7 @@ def traction_limit(v, max_force, max_power, adhesion_mass, g):
     f = max_force
     s = abs(v)
     if s * f > max_power:
-        f = max_power / s
+        f = max_power / max(s, 1e-12)  # (s > 0 here; the guard keeps speculation quiet)
     fa = adhesion_limit(s, adhesion_mass, g)
     if fa < f:
         f = fa

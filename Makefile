@@ -1,0 +1,29 @@
+# Set-up and main jobs. Needs only python3 (>= 3.11) and make.
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-stamp
+
+.PHONY: run test bench clean
+
+# create the virtual environment and install ltdsim with its test tools
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e ".[test]"
+	touch $(STAMP)
+
+## run: simulate the study's base scenario (case LHHL), write results/ and a figure
+run: $(STAMP)
+	$(BIN)/ltdsim run scenarios/paper.toml --case LHHL \
+	    --output results/paper-LHHL.nc --plot results/paper-LHHL.png
+
+## test: the whole test suite
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+## bench: kernel benchmark, table to benchmarks/results/
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_kernel.py
+
+clean:
+	rm -rf $(VENV) results .pytest_cache .hypothesis

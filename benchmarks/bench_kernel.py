@@ -1,0 +1,137 @@
+"""Kernel benchmark: the study's base scenario against a plain SciPy right-hand side.
+
+Runs, in one process:
+  * ltdsim: the base scenario, case LHHL, 270 s, ode3 at dt = 1e-4 s, 10 vehicles,
+    after compilation, several times (median);
+  * SciPy: the same model as a NumPy right-hand side (ltdsim.reference) under
+    ``solve_ivp(method="RK23", rtol=1e-6)`` over the first seconds only;
+and prints a table, also written to benchmarks/results/bench_kernel.md and .json.
+Timings are ratios within this run; the machine is shared, so absolute seconds vary.
+
+Usage: python benchmarks/bench_kernel.py [--repeats 5] [--scipy-window 2.0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import os
+import platform
+import resource
+import statistics
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+import ltdsim
+from ltdsim.io import atomic_path
+from ltdsim.reference import make_rhs
+
+HERE = Path(__file__).resolve().parent
+PAPER = HERE.parent / "scenarios" / "paper.toml"
+STUDY_SECONDS_PER_CASE = 854.7  # the study's Simulink time per case (paper §5)
+
+
+def _time_ltdsim(sc, repeats: int):
+    walls, kernels = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        ds = ltdsim.simulate(sc)
+        walls.append(time.perf_counter() - t0)
+        kernels.append(ds.attrs["wall_time_s"])
+    return walls, kernels, ds
+
+
+def _time_scipy(sc, window: float, repeats: int):
+    f, y0 = make_rhs(sc)
+    walls = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        sol = solve_ivp(f, (0.0, window), y0, method="RK23", rtol=1e-6, atol=1e-9)
+        walls.append(time.perf_counter() - t0)
+    assert sol.success, sol.message
+    return walls, sol
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--scipy-window", type=float, default=2.0, help="simulated seconds, s")
+    ap.add_argument("--scipy-repeats", type=int, default=3)
+    ap.add_argument("--out", type=Path, default=HERE / "results")
+    args = ap.parse_args(argv)
+
+    sc = ltdsim.load_scenario(PAPER, case="LHHL")
+    n = sc.n_vehicles
+    steps = sc.solver.n_steps
+    t_sim = steps * sc.solver.dt
+
+    t0 = time.perf_counter()
+    ltdsim.simulate(sc.with_overrides({"solver.t_end": 0.01}))
+    warm = time.perf_counter() - t0  # compile, or load from numba's cache
+
+    tracemalloc.start()
+    walls, kernels, ds = _time_ltdsim(sc, 1)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    more_walls, more_kernels, ds = _time_ltdsim(sc, max(args.repeats - 1, 1))
+    walls += more_walls
+    kernels += more_kernels
+    wall = statistics.median(walls)
+    kern = statistics.median(kernels)
+
+    sp_walls, sol = _time_scipy(sc, args.scipy_window, args.scipy_repeats)
+    sp = statistics.median(sp_walls)
+    sp_per_sim_s = sp / args.scipy_window
+    lt_per_sim_s = wall / t_sim
+
+    rows = [
+        ("ltdsim: seconds per case (270 s, dt 1e-4, ode3, all outputs)", f"{wall:.3f}"),
+        ("ltdsim: of which compiled kernel, s", f"{kern:.3f}"),
+        ("ltdsim: vehicle-steps per second (kernel)", f"{n * steps / kern / 1e6:.1f} M"),
+        ("ltdsim: vehicle-steps per second (whole case)", f"{n * steps / wall / 1e6:.1f} M"),
+        ("ltdsim: faster than real time", f"{t_sim / wall:.0f}x"),
+        ("ltdsim: peak memory of one case (tracemalloc)", f"{peak / 2**20:.0f} MiB"),
+        ("ltdsim: first call (compile or cache load), s", f"{warm:.2f}"),
+        (f"scipy solve_ivp RK23 rtol 1e-6: seconds per simulated second "
+         f"(first {args.scipy_window:g} s)", f"{sp_per_sim_s:.2f}"),
+        ("scipy: right-hand-side evaluations per simulated second",
+         f"{sol.nfev / args.scipy_window:.0f}"),
+        ("ratio scipy / ltdsim per simulated second", f"{sp_per_sim_s / lt_per_sim_s:.0f}x"),
+        ("ratio study (Simulink, 854.7 s per case) / ltdsim", f"{STUDY_SECONDS_PER_CASE / wall:.0f}x"),
+    ]
+    width = max(len(r[0]) for r in rows)
+    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
+    lines = [f"Kernel benchmark, {stamp} ({machine}); medians of {len(walls)} ltdsim runs "
+             f"and {len(sp_walls)} scipy runs", "",
+             f"| {'quantity':<{width}} | value |", f"|{'-' * (width + 2)}|-------|"]
+    lines += [f"| {k:<{width}} | {v} |" for k, v in rows]
+    text = "\n".join(lines)
+    print(text)
+    print(f"process peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB",
+          file=sys.stderr)
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    with atomic_path(args.out / "bench_kernel.md") as tmp:
+        tmp.write_text(text + "\n")
+    result = {
+        "timestamp": stamp, "machine": machine, "vehicles": n, "steps": steps,
+        "seconds_per_case": wall, "kernel_seconds": kern, "walls": walls, "kernels": kernels,
+        "vehicle_steps_per_s": n * steps / kern, "peak_bytes": peak, "first_call_s": warm,
+        "scipy_window_s": args.scipy_window, "scipy_walls": sp_walls, "scipy_nfev": int(sol.nfev),
+        "ratio_scipy": sp_per_sim_s / lt_per_sim_s,
+        "rms_speed_error_m_s": float(np.sqrt(np.mean(ds.speed_error.values ** 2))),
+    }
+    with atomic_path(args.out / "bench_kernel.json") as tmp:
+        tmp.write_text(json.dumps(result, indent=2) + "\n")
+    return result
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,37 @@
+"""Point numba's on-disk cache at a folder keyed by a hash of ltdsim's compiled sources.
+
+numba checks only the timestamp of the file that defines a cached function, not of the
+functions it calls, so editing a force law would otherwise leave a stale compiled
+kernel in use. Keying the folder on the sources of every compiled module makes any
+change start a fresh cache. A ``NUMBA_CACHE_DIR`` set by the user is respected.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import numba
+
+_COMPILED = ("kernel.py", "lowering.py", "physics/control.py", "physics/couplers.py",
+             "physics/resistance.py", "physics/traction.py")
+
+
+def source_hash() -> str:
+    """Hash of the compiled modules' sources and the numba version (12 hex digits)."""
+    here = Path(__file__).parent
+    h = hashlib.sha256(numba.__version__.encode())
+    for name in _COMPILED:
+        h.update((here / name).read_bytes())
+    return h.hexdigest()[:12]
+
+
+def configure() -> None:
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    numba.config.CACHE_DIR = str(base / "ltdsim" / f"numba-{source_hash()}")
+
+
+configure()

@@ -1,0 +1,40 @@
+"""Summary numbers of a result: what an engineer checks first."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+
+def coupler_summary(ds: xr.Dataset) -> pd.DataFrame:
+    """Per coupler: largest tension and compression (N) and the times they occur (s)."""
+    f = ds.coupler_force
+    t = ds.time.values
+    it = f.argmax("time").values
+    ic = f.argmin("time").values
+    return pd.DataFrame({
+        "coupler": ds.coupler.values,
+        "max_tension_N": np.maximum(f.max("time").values, 0.0),
+        "t_max_tension_s": t[it],
+        "max_compression_N": np.maximum(-f.min("time").values, 0.0),
+        "t_max_compression_s": t[ic],
+    }).set_index("coupler")
+
+
+def run_summary(ds: xr.Dataset) -> dict[str, float]:
+    """Scalar facts of a run: RMS and max speed error (m/s), max |acceleration| (m/s^2),
+    peak traction (N), and whether traction ever exceeded adhesion."""
+    err = ds.speed_error.values
+    finite = np.isfinite(err)
+    out = {
+        "rms_speed_error_m_s": float(np.sqrt(np.mean(err[finite] ** 2))) if finite.any() else float("nan"),
+        "max_speed_error_m_s": float(np.max(np.abs(err[finite]))) if finite.any() else float("nan"),
+        "max_abs_acceleration_m_s2": float(np.abs(ds.acceleration.values).max()),
+        "max_traction_N": float(ds.traction_force.max()),
+        "max_brake_N": float(max(-ds.traction_force.min().item(), 0.0)),
+        "samples_over_adhesion": int((np.abs(ds.traction_force) > ds.adhesion_limit).sum()),
+        "simulated_s": float(ds.time.values[-1]),
+        "wall_time_s": float(ds.attrs.get("wall_time_s", float("nan"))),
+    }
+    return out

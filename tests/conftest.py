@@ -1,0 +1,49 @@
+"""Shared builders for small test trains (plain dictionaries, validated by Scenario)."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+
+from ltdsim import Scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER = ROOT / "scenarios" / "paper.toml"
+
+
+def train_dict(masses, *, coupler=None, force=1e5, t_end=10.0, dt=1e-3, output_interval=None,
+               method="ode3", davis=None, speed=0.0, gradient=None, powered=(0,),
+               static_masses=None) -> dict:
+    """A force-driven train of the given masses (kg), generous traction limits."""
+    davis = davis or {"a": 0.0, "b": 0.0, "c": 0.0}
+    vehicles = []
+    for i, m in enumerate(masses):
+        v = {"name": f"v{i}", "mass": float(m), "length": 15.0, "davis": dict(davis),
+             "powered": i in powered}
+        if static_masses is not None:
+            v["static_mass"] = float(static_masses[i])
+        vehicles.append(v)
+    d = {
+        "solver": {"method": method, "dt": dt, "t_end": t_end,
+                   "output_interval": output_interval or dt},
+        "vehicles": vehicles,
+        "couplers": {"default": coupler or {"model": "linear", "stiffness": 5e6,
+                                            "damping": 0.0, "slack": 0.0}},
+        "traction": {"max_force": 1e8, "max_power": 1e9, "adhesion_mass": 1e8},
+        "driver": {"mode": "force", "force_profile": [[0.0, float(force)]]},
+        "initial": {"speed": speed},
+    }
+    if gradient is not None:
+        d["track"] = {"gradient": gradient}
+    return d
+
+
+def build(d: dict) -> Scenario:
+    return Scenario.from_dict(copy.deepcopy(d), "test")
+
+
+@pytest.fixture(scope="session")
+def paper_path() -> Path:
+    return PAPER

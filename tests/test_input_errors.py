@@ -1,0 +1,108 @@
+"""Bad input fails at load time with one clear message naming file, key and range."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import ltdsim
+from ltdsim import ScenarioError, SimulationError
+
+from conftest import ROOT, build, train_dict
+
+EXAMPLE = (ROOT / "scenarios" / "short-train.toml").read_text()
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "bad.toml"
+    p.write_text(text)
+    return p
+
+
+def load_error(tmp_path, text, case=None) -> str:
+    with pytest.raises(ScenarioError) as info:
+        ltdsim.load_scenario(write(tmp_path, text), case=case)
+    msg = str(info.value)
+    assert "bad.toml" in msg
+    return msg
+
+
+def test_unknown_key_is_named_with_the_allowed_keys(tmp_path):
+    msg = load_error(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 60.0\nmetod = 1"))
+    assert "solver.metod" in msg and "unknown key" in msg and "output_interval" in msg
+
+
+@pytest.mark.parametrize("mass", ["-90000.0", "0.0"])
+def test_negative_or_zero_mass_names_the_vehicle_and_the_range(tmp_path, mass):
+    msg = load_error(tmp_path, EXAMPLE.replace("mass = 90000.0", f"mass = {mass}"))
+    assert "vehicles.1.mass" in msg and "greater than 0" in msg
+
+
+def test_nan_is_refused(tmp_path):
+    msg = load_error(tmp_path, EXAMPLE.replace("k1 = 8.265776e6", "k1 = nan"))
+    assert "couplers.default.k1" in msg and "finite" in msg
+
+
+def test_empty_train_is_refused():
+    d = train_dict([1e4, 1e4])
+    d["vehicles"] = []
+    with pytest.raises(ScenarioError) as info:
+        ltdsim.Scenario.from_dict(d, "empty.toml")
+    assert "empty.toml: vehicles" in str(info.value) and "at least 1" in str(info.value)
+
+
+def test_output_interval_must_be_a_whole_number_of_steps(tmp_path):
+    msg = load_error(tmp_path, EXAMPLE.replace("output_interval = 1e-3", "output_interval = 2.5e-4"))
+    assert "solver" in msg and "whole multiple of dt" in msg
+
+
+def test_coupler_override_index_out_of_range(tmp_path):
+    msg = load_error(tmp_path, EXAMPLE.replace("index = 3", "index = 4"))
+    assert "couplers.override.0.index = 4" in msg and "couplers 0 to 3" in msg
+
+
+def test_unknown_case_lists_the_available_ones(tmp_path, paper_path):
+    with pytest.raises(ScenarioError) as info:
+        ltdsim.load_scenario(paper_path, case="LHHX")
+    msg = str(info.value)
+    assert "paper.toml" in msg and "LHHX" in msg and "LHHL" in msg
+
+
+def test_a_case_with_a_bad_key_fails_when_the_file_is_loaded(tmp_path):
+    msg = load_error(tmp_path, EXAMPLE + '\n[cases.broken]\n"couplers.default.k9" = 1.0\n')
+    assert "cases.broken" in msg and "k9" in msg
+
+
+def test_override_of_a_vehicle_that_does_not_exist(tmp_path):
+    sc = ltdsim.load_scenario(ROOT / "scenarios" / "short-train.toml")
+    with pytest.raises(ScenarioError) as info:
+        sc.with_overrides({"vehicles.30.mass": 1.0})
+    assert "vehicles.30.mass" in str(info.value) and "0-4" in str(info.value)
+    with pytest.raises(ScenarioError) as info:
+        sc.with_overrides({"solver.dt": -1.0})
+    assert "solver.dt" in str(info.value) and "greater than 0" in str(info.value)
+
+
+def test_cli_reports_bad_input_in_one_line_without_a_traceback(tmp_path):
+    bad = write(tmp_path, EXAMPLE.replace("mass = 90000.0", "mass = -1.0"))
+    proc = subprocess.run([sys.executable, "-m", "ltdsim.cli", "run", str(bad), "-q"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert "vehicles.1.mass" in proc.stderr and "bad.toml" in proc.stderr
+
+
+def test_a_diverging_simulation_stops_and_names_time_vehicle_and_values():
+    # explicit Euler far beyond its stability limit: k/m = 1e5 1/s^2 at dt = 0.01 s
+    d = train_dict([1e4, 1e4, 1e4], t_end=100.0, dt=1e-2, method="euler",
+                   coupler={"model": "linear", "stiffness": 1e9, "damping": 0.0, "slack": 0.0})
+    with pytest.raises(SimulationError) as info:
+        ltdsim.simulate(build(d))
+    err = info.value
+    assert 0.0 < err.time < 100.0
+    assert err.vehicle is not None and 0 <= err.vehicle < 3
+    msg = str(err)
+    assert f"t = {err.time:.6g} s" in msg and "vehicle" in msg and "velocity" in msg
+    assert np.isfinite(err.time)
