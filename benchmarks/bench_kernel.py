@@ -47,12 +47,12 @@ def _time_ltdsim(sc, repeats: int):
     return walls, kernels, ds
 
 
-def _time_scipy(sc, window: float, repeats: int):
+def _time_scipy(sc, window: float, repeats: int, **options):
     f, y0 = make_rhs(sc)
     walls = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        sol = solve_ivp(f, (0.0, window), y0, method="RK23", rtol=1e-6, atol=1e-9)
+        sol = solve_ivp(f, (0.0, window), y0, method="RK23", rtol=1e-6, atol=1e-9, **options)
         walls.append(time.perf_counter() - t0)
     assert sol.success, sol.message
     return walls, sol
@@ -89,6 +89,14 @@ def main(argv=None) -> dict:
     sp = statistics.median(sp_walls)
     sp_per_sim_s = sp / args.scipy_window
     lt_per_sim_s = wall / t_sim
+    # like for like: SciPy held to the study's step, and cost per right-hand side
+    fixed_window = 0.2
+    fx_walls, fx_sol = _time_scipy(sc, fixed_window, args.scipy_repeats,
+                                   max_step=sc.solver.dt, first_step=sc.solver.dt)
+    fx_per_sim_s = statistics.median(fx_walls) / fixed_window
+    stages = 3  # ode3 right-hand sides per step
+    lt_per_rhs = kern / (steps * stages)
+    sp_per_rhs = sp / sol.nfev
 
     rows = [
         ("ltdsim: seconds per case (270 s, dt 1e-4, ode3, all outputs)", f"{wall:.3f}"),
@@ -102,7 +110,12 @@ def main(argv=None) -> dict:
          f"(first {args.scipy_window:g} s)", f"{sp_per_sim_s:.2f}"),
         ("scipy: right-hand-side evaluations per simulated second",
          f"{sol.nfev / args.scipy_window:.0f}"),
-        ("ratio scipy / ltdsim per simulated second", f"{sp_per_sim_s / lt_per_sim_s:.0f}x"),
+        ("ratio scipy / ltdsim per simulated second (scipy adaptive)",
+         f"{sp_per_sim_s / lt_per_sim_s:.0f}x"),
+        (f"ratio scipy / ltdsim per simulated second, scipy held to max_step = dt "
+         f"(first {fixed_window:g} s)", f"{fx_per_sim_s / lt_per_sim_s:.0f}x"),
+        ("ratio scipy / ltdsim per right-hand-side evaluation",
+         f"{sp_per_rhs / lt_per_rhs:.0f}x"),
         ("ratio study (Simulink, 854.7 s per case) / ltdsim", f"{STUDY_SECONDS_PER_CASE / wall:.0f}x"),
     ]
     width = max(len(r[0]) for r in rows)
@@ -126,6 +139,8 @@ def main(argv=None) -> dict:
         "vehicle_steps_per_s": n * steps / kern, "peak_bytes": peak, "first_call_s": warm,
         "scipy_window_s": args.scipy_window, "scipy_walls": sp_walls, "scipy_nfev": int(sol.nfev),
         "ratio_scipy": sp_per_sim_s / lt_per_sim_s,
+        "ratio_scipy_same_step": fx_per_sim_s / lt_per_sim_s,
+        "ratio_scipy_per_rhs": sp_per_rhs / lt_per_rhs,
         "rms_speed_error_m_s": float(np.sqrt(np.mean(ds.speed_error.values ** 2))),
     }
     with atomic_path(args.out / "bench_kernel.json") as tmp:

@@ -3,7 +3,7 @@
 import control
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
@@ -40,13 +40,16 @@ def test_step_response_of_the_study_pid_equals_its_transfer_function(integrator,
                     atol=1e-12)
 
 
+@pytest.mark.filterwarnings("ignore::scipy.signal.BadCoefficients")  # python-control, kp = 0
 @settings(max_examples=25, deadline=None)
-@given(kp=st.floats(0.0, 100.0), ki=st.floats(0.0, 50.0), kd=st.floats(0.0, 0.1),
-       n=st.floats(1.0, 1000.0), ts=st.sampled_from([1e-4, 1e-3, 1e-2]),
+@given(kp=st.floats(0.0, 100.0, allow_subnormal=False),
+       ki=st.floats(0.0, 50.0, allow_subnormal=False),
+       kd=st.one_of(st.just(0.0), st.floats(1e-6, 0.1)), n=st.floats(1.0, 1000.0), ts=st.sampled_from([1e-4, 1e-3, 1e-2]),
        seed=st.integers(0, 2**31 - 1), methods=st.sampled_from(METHODS))
 def test_pid_response_to_any_error_sequence_equals_the_transfer_function(kp, ki, kd, n, ts, seed,
                                                                          methods):
     integrator, filt = methods
+    assume(n * ts <= 1.0)  # a discrete derivative filter is used well inside its stable range
     rng = np.random.default_rng(seed)
     u = rng.normal(size=200)
     t = np.arange(u.size) * ts
