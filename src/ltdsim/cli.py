@@ -102,7 +102,8 @@ def run(
         f"{tracking}max |acceleration| {s['max_abs_acceleration_m_s2']:.3f} m/s^2; "
         f"peak traction {s['max_traction_N'] / 1e3:.1f} kN; "
         f"samples over adhesion {s['samples_over_adhesion']}; "
-        f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall")
+        f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
+        + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
     if output is not None:
         save_result(ds, output)
         console.print(f"result written to {output}")

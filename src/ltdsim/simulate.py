@@ -81,16 +81,20 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         coupler, and their values.
     """
     low = lower(scenario)
-    wall0 = _time.perf_counter()
+    t0 = _time.perf_counter()
+    y, rec = _integrate(low, scenario, progress, chunks, compile_only=True)
+    t1 = _time.perf_counter()
     y, rec = _integrate(low, scenario, progress, chunks)
-    wall = _time.perf_counter() - wall0
-    return _dataset(scenario, low, rec, wall)
+    wall = _time.perf_counter() - t1
+    return _dataset(scenario, low, rec, wall, compile_time=t1 - t0)
 
 
-def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
+def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=False):
+    """Run the kernel over the whole scenario (or, with ``compile_only``, over zero steps,
+    which only makes numba compile or load the kernel for these argument types)."""
     n = low.n
     nc = max(n - 1, 0)
-    n_rec = low.n_steps // low.record_every + 1
+    n_rec = 1 if compile_only else low.n_steps // low.record_every + 1
     rec = {
         "x": np.empty((n_rec, n)), "v": np.empty((n_rec, n)), "a": np.empty((n_rec, n)),
         "d": np.empty((n_rec, nc)), "f": np.empty((n_rec, nc)),
@@ -105,12 +109,14 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
     per = max(1, (n_rec - 1) // max(chunks, 1)) * low.record_every
     k = 0
     while True:
-        k_stop = min(k + per, low.n_steps)
+        k_stop = 0 if compile_only else min(k + per, low.n_steps)
         status, k_end = kernel.run(
             y, ctrl, k, k_stop, low.n_steps, low.record_every, low.dt, tab.A, tab.b, tab.c,
             low.veh, low.cpl_model, low.cpl, low.track_pos, low.track_grade, low.track_curv,
             low.curve_h, low.trac, low.drv, low.prof_t, low.prof_y,
             rec["x"], rec["v"], rec["a"], rec["d"], rec["f"], rec["s"], work, hints)
+        if compile_only:
+            return y, rec
         if status != kernel.OK:
             raise _nonfinite_error(scenario, low, y, k_end)
         k = k_stop
@@ -142,7 +148,8 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, k: int) ->
     return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
 
 
-def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float) -> xr.Dataset:
+def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
+             compile_time: float) -> xr.Dataset:
     n = low.n
     n_rec = rec["x"].shape[0]
     time = np.arange(n_rec) * (low.record_every * low.dt)
@@ -192,6 +199,7 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float) -> xr.Dat
         "solver_dt_s": scenario.solver.dt,
         "steps": low.n_steps,
         "wall_time_s": wall,
+        "compile_time_s": compile_time,
         "scenario_json": json.dumps(scenario.to_dict()),
         "conventions": "SI units; coupler force + tension; vehicle 0 is the lead",
     })

@@ -36,5 +36,6 @@ def run_summary(ds: xr.Dataset) -> dict[str, float]:
         "samples_over_adhesion": int((np.abs(ds.traction_force) > ds.adhesion_limit).sum()),
         "simulated_s": float(ds.time.values[-1]),
         "wall_time_s": float(ds.attrs.get("wall_time_s", float("nan"))),
+        "compile_time_s": float(ds.attrs.get("compile_time_s", 0.0)),
     }
     return out
