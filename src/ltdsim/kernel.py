@@ -180,7 +180,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
             drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
         if c_rec == 0:
             _record(k // record_every, t, y, K, force, defl, sig, a_dem, speed_mode,
-                    prof_t, prof_y, hints, trac, out_x, out_v, out_a, out_d, out_f, out_s)
+                    prof_t, prof_y, hints, trac, veh, out_x, out_v, out_a, out_d, out_f, out_s)
         for s in range(1, ns):
             for q in range(ny):
                 ytmp[q] = y[q]
@@ -218,16 +218,16 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         rhs(t, y, ctrl[2], veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac,
             drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
         _record(k_stop // record_every, t, y, K, force, defl, sig, ctrl[2], speed_mode,
-                prof_t, prof_y, hints, trac, out_x, out_v, out_a, out_d, out_f, out_s)
+                prof_t, prof_y, hints, trac, veh, out_x, out_v, out_a, out_d, out_f, out_s)
     return OK, k_stop
 
 
 @njit(cache=True, inline="always")
-def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hints, trac,
+def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hints, trac, veh,
             out_x, out_v, out_a, out_d, out_f, out_s):
     n = out_x.shape[1]
     for i in range(n):
-        out_x[r, i] = y[i]
+        out_x[r, i] = y[i] + veh[i, V_P0]  # track position
         out_v[r, i] = y[n + i]
         out_a[r, i] = dy[n + i]  # stage-1 derivatives sit at offset 0
     for j in range(n - 1):

@@ -130,7 +130,7 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
 def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, k: int) -> SimulationError:
     n = low.n
     t = k * low.dt
-    x, v = y[:n], y[n:]
+    x, v = y[:n], y[n:2 * n]
     bad = np.flatnonzero(~(np.isfinite(x) & np.isfinite(v)))
     i = int(bad[0]) if bad.size else None
     parts = [f"simulation state became non-finite at t = {t:.6g} s (step {k})"]
@@ -154,7 +154,7 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
     n_rec = rec["x"].shape[0]
     time = np.arange(n_rec) * (low.record_every * low.dt)
     p0 = low.veh[:, V_P0]
-    position = rec["x"] + p0
+    position = rec["x"]  # the kernel records track positions
     vel = rec["v"]
     ref = int(low.trac[T_REF])
     s = rec["s"]
@@ -164,7 +164,7 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "position": (vdims, position),
         "velocity": (vdims, vel),
         "acceleration": (vdims, rec["a"]),
-        "relative_position": (vdims, rec["x"] - rec["x"][:, :1]),
+        "relative_position": (vdims, position - position[:, :1] - (p0 - p0[0])),
         "relative_velocity": (vdims, vel - vel[:, :1]),
         "coupler_deflection": (cdims, rec["d"]),
         "coupler_force": (cdims, rec["f"]),
