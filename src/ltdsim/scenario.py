@@ -14,9 +14,11 @@ import tomllib
 import types
 import typing
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator,
+)
 
 from ltdsim.errors import ScenarioError
 
@@ -33,12 +35,17 @@ class _Strict(BaseModel):
 Points = list[tuple[float, float]]
 
 
-def _check_breakpoints(points: Points, what: str) -> Points:
+def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
+    """A piecewise table: at least one point, first column strictly increasing, every
+    value in the second column passing ``ok`` (described by ``allowed``)."""
     if len(points) == 0:
-        raise ValueError(f"{what} needs at least one [x, y] point")
+        raise ValueError("needs at least one [x, y] point")
     xs = [p[0] for p in points]
     if any(b <= a for a, b in zip(xs, xs[1:])):
-        raise ValueError(f"{what}: the first column must be strictly increasing, got {xs}")
+        raise ValueError(f"the first column ({what}) must be strictly increasing, got {xs}")
+    bad = [y for _, y in points if not ok(y)]
+    if bad:
+        raise ValueError(f"the second column must be {allowed}, got {bad}")
     return points
 
 
@@ -127,19 +134,20 @@ class CouplerParams(_Strict):
         return self
 
 
-class CouplerOverride(_Strict):
-    """Keys of coupler ``index`` that differ from the default."""
+def _all_optional(model: type[BaseModel], name: str, doc: str, **extra) -> type[BaseModel]:
+    """A model with every field of ``model`` optional (default None), same ranges."""
+    fields = {}
+    for key, f in model.model_fields.items():
+        kind = Optional[f.annotation]
+        if f.metadata:
+            kind = Annotated[kind, *f.metadata]
+        fields[key] = (kind, Field(None, description=f.description))
+    return create_model(name, __base__=_Strict, __doc__=doc, **extra, **fields)
 
-    index: int = Field(ge=0, description="coupler index, 0 joins vehicles 0 and 1")
-    model: Literal["linear", "simplified"] | None = None
-    slack: float | None = Field(None, ge=0.0, le=1.0)
-    preload: float | None = Field(None, ge=0.0, le=1e7)
-    damping: float | None = Field(None, ge=0.0, le=1e9)
-    stiffness: float | None = Field(None, gt=0.0, le=1e12)
-    k1: float | None = Field(None, gt=0.0, le=1e12)
-    k2: float | None = Field(None, ge=0.0, le=1e12)
-    k3: float | None = Field(None, gt=0.0, le=1e12)
-    v_c: float | None = Field(None, gt=0.0, le=1e3)
+
+CouplerOverride = _all_optional(
+    CouplerParams, "CouplerOverride", "Keys of coupler ``index`` that differ from the default.",
+    index=(int, Field(ge=0, description="coupler index, 0 joins vehicles 0 and 1")))
 
 
 class Couplers(_Strict):
@@ -160,20 +168,13 @@ class Track(_Strict):
     @field_validator("gradient")
     @classmethod
     def _grades(cls, v):
-        _check_breakpoints(v, "gradient")
-        bad = [g for _, g in v if abs(g) > 0.1]
-        if bad:
-            raise ValueError(f"grades must lie in [-0.1, 0.1] (rise/run), got {bad}")
-        return v
+        return _check_table(v, "start positions, m", lambda g: abs(g) <= 0.1, "in [-0.1, 0.1] (rise/run)")
 
     @field_validator("curve")
     @classmethod
     def _curves(cls, v):
-        _check_breakpoints(v, "curve")
-        bad = [r for _, r in v if r != 0.0 and not (20.0 <= abs(r) <= 1e6)]
-        if bad:
-            raise ValueError(f"radii must be 0 (straight) or 20-1e6 m in magnitude, got {bad}")
-        return v
+        return _check_table(v, "start positions, m", lambda r: r == 0.0 or 20.0 <= abs(r) <= 1e6,
+                            "0 (straight) or radii of 20-1e6 m")
 
 
 class Traction(_Strict):
@@ -210,20 +211,12 @@ class Driver(_Strict):
     @field_validator("speed_profile")
     @classmethod
     def _speeds(cls, v):
-        _check_breakpoints(v, "speed_profile")
-        bad = [s for _, s in v if not 0.0 <= s <= 150.0]
-        if bad:
-            raise ValueError(f"speeds must lie in [0, 150] m/s, got {bad}")
-        return v
+        return _check_table(v, "times, s", lambda s: 0.0 <= s <= 150.0, "in [0, 150] m/s")
 
     @field_validator("force_profile")
     @classmethod
     def _forces(cls, v):
-        _check_breakpoints(v, "force_profile")
-        bad = [f for _, f in v if abs(f) > 1e8]
-        if bad:
-            raise ValueError(f"forces must lie in [-1e8, 1e8] N, got {bad}")
-        return v
+        return _check_table(v, "times, s", lambda f: abs(f) <= 1e8, "in [-1e8, 1e8] N")
 
     @model_validator(mode="after")
     def _pid_needed(self):

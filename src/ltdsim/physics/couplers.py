@@ -15,7 +15,20 @@ from __future__ import annotations
 
 import math
 
-from numba import vectorize
+from numba import njit, vectorize
+
+
+@njit(cache=True, inline="always")
+def contact(f, e, slack):
+    """Unilateral contact across a slack coupling, N.
+
+    With slack, a gear in draft (``e > 0``) can only pull and one in buff only push; a
+    force of the wrong sign (a damper pulling separating faces together) becomes 0.
+    Without slack the coupling is two-sided and ``f`` is returned unchanged.
+    """
+    if slack > 0.0 and f * e < 0.0:
+        return 0.0
+    return f
 
 
 @vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
@@ -39,18 +52,14 @@ def coupler_linear(d, dd, slack, stiffness, damping):
     """
     h = 0.5 * slack
     if d > h:
-        f = stiffness * (d - h) + damping * dd
-        if slack > 0.0 and f < 0.0:
-            f = 0.0
-        return f
-    if d < -h:
-        f = stiffness * (d + h) + damping * dd
-        if slack > 0.0 and f > 0.0:
-            f = 0.0
-        return f
-    if slack > 0.0:
+        e = d - h
+    elif d < -h:
+        e = d + h
+    elif slack > 0.0:
         return 0.0
-    return damping * dd  # no slack and d == 0 exactly: only the damper acts
+    else:
+        return damping * dd  # no slack and d == 0 exactly: only the damper acts
+    return contact(stiffness * e + damping * dd, e, slack)
 
 
 @vectorize(
@@ -91,15 +100,11 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
     if d > h:
         e = d - h
         f = preload + (k3 + k2 * math.exp(-abs(dd) / v_c)) * e + damping * dd
-        if slack > 0.0 and f < 0.0:
-            f = 0.0
-        return f
-    if d < -h:
+    elif d < -h:
         e = d + h
         f = -preload + k1 * e + damping * dd
-        if slack > 0.0 and f > 0.0:
-            f = 0.0
-        return f
-    if slack > 0.0:
+    elif slack > 0.0:
         return 0.0
-    return damping * dd  # no slack and d == 0 exactly: only the damper acts
+    else:
+        return damping * dd  # no slack and d == 0 exactly: only the damper acts
+    return contact(f, e, slack)
