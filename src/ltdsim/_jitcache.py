@@ -14,16 +14,16 @@ from pathlib import Path
 
 import numba
 
-_COMPILED = ("kernel.py", "lowering.py", "physics/control.py", "physics/couplers.py",
-             "physics/resistance.py", "physics/traction.py")
-
-
 def source_hash() -> str:
-    """Hash of the compiled modules' sources and the numba version (12 hex digits)."""
+    """Hash of every module of the package and the numba version (12 hex digits).
+
+    All modules, not a hand-kept list of the compiled ones: a list goes stale silently.
+    """
     here = Path(__file__).parent
     h = hashlib.sha256(numba.__version__.encode())
-    for name in _COMPILED:
-        h.update((here / name).read_bytes())
+    for path in sorted(here.rglob("*.py")):
+        h.update(str(path.relative_to(here)).encode())
+        h.update(path.read_bytes())
     return h.hexdigest()[:12]
 
 

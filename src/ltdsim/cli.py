@@ -114,6 +114,157 @@ def run(
         console.print(f"figure written to {plot}")
 
 
+gear_app = typer.Typer(no_args_is_help=True, help="A single draft gear: loops and impacts.")
+app.add_typer(gear_app, name="gear")
+
+
+def _gear_params(preset: Optional[str], scenario: Optional[Path], coupler: int):
+    from ltdsim.scenario import CouplerParams, gear_presets, load_scenario
+
+    if (preset is None) == (scenario is None):
+        raise ScenarioError("gear", [("", "give either --preset NAME or --scenario FILE "
+                                          f"(presets: {', '.join(gear_presets())})")])
+    if preset is not None:
+        try:
+            return CouplerParams(preset=preset)
+        except Exception as exc:  # pydantic ValidationError
+            raise ScenarioError("--preset", [("preset", str(exc).splitlines()[-2].strip())])
+    sc = load_scenario(scenario)
+    if not 0 <= coupler < sc.n_couplers:
+        raise ScenarioError(str(scenario), [("--coupler", f"{coupler} out of range 0-"
+                                                          f"{sc.n_couplers - 1}")])
+    return sc.coupler(coupler)
+
+
+PresetOpt = Annotated[Optional[str], typer.Option("--preset", help="gear parameter set")]
+ScenarioOpt = Annotated[Optional[Path], typer.Option("--scenario", help="take a coupler "
+                                                                         "from this file")]
+CouplerOpt = Annotated[int, typer.Option("--coupler", help="coupler index in --scenario")]
+
+
+@gear_app.command("loop")
+def gear_loop(
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 0,
+    amplitude: Annotated[float, typer.Option(help="peak gear deflection beyond slack, m")] = 0.08,
+    period: Annotated[float, typer.Option(help="period of one cycle, s")] = 10.0,
+    cycles: Annotated[int, typer.Option(help="number of cycles")] = 2,
+    buff: Annotated[bool, typer.Option(help="compress (buff) instead of stretching")] = False,
+    plot: Annotated[Path, typer.Option("--plot", "-p", help="figure file")] = Path(
+        "results/gear-loop.png"),
+) -> None:
+    """Cycle one gear through a prescribed deflection and plot its force-deflection loop."""
+    import numpy as np
+
+    from ltdsim.gear import drive_deflection, loop_energy
+
+    try:
+        params = _gear_params(preset, scenario, coupler)
+    except ScenarioError as exc:
+        _fail(exc)
+        return
+    t = np.linspace(0.0, cycles * period, int(cycles * period / 1e-3) + 1)
+    sign = -1.0 if buff else 1.0
+    d = sign * (0.5 * params.slack + amplitude * 0.5 * (1 - np.cos(2 * np.pi * t / period)))
+    ds = drive_deflection(params, t, d)
+    energy = loop_energy(ds) / cycles
+    console.print(f"{params.model} gear: peak force {abs(ds.force).max().item() / 1e3:.1f} kN, "
+                  f"energy absorbed per cycle {energy / 1e3:.2f} kJ")
+    from ltdsim.plotting import save_gear_loop
+
+    save_gear_loop(ds, plot, title=f"{preset or scenario} ({params.model})")
+    console.print(f"figure written to {plot}")
+
+
+@gear_app.command("impact")
+def gear_impact(
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 0,
+    speeds: Annotated[str, typer.Option(help="impact speeds, m/s, comma separated")] = "0.5,1,1.5,2,2.5,3",
+    mass: Annotated[float, typer.Option(help="mass of each wagon, kg")] = 90000.0,
+    csv: Annotated[Optional[Path], typer.Option(help="write the table as CSV")] = None,
+) -> None:
+    """Run a wagon into a standing wagon at several speeds: peak force, travel, energy."""
+    import pandas as pd
+
+    from ltdsim.gear import impact
+
+    try:
+        params = _gear_params(preset, scenario, coupler)
+        values = [float(v) for v in speeds.split(",") if v.strip()]
+    except ScenarioError as exc:
+        _fail(exc)
+        return
+    except ValueError:
+        _fail(ScenarioError("--speeds", [("speeds", f"not a list of numbers: {speeds!r}")]))
+        return
+    rows = []
+    table = Table(title=f"Impact of two {mass / 1e3:.0f} t wagons ({params.model} gear)")
+    for col in ("speed [m/s]", "speed [km/h]", "peak force [kN]", "max deflection [mm]",
+                "energy absorbed [kJ]", "share of relative KE"):
+        table.add_column(col, justify="right")
+    for v in values:
+        r = impact(params, v, mass_moving=mass, mass_standing=mass)
+        rel_ke = 0.25 * mass * v * v  # kinetic energy of the relative motion, J
+        rows.append({k: r[k] for k in ("speed_m_s", "peak_force_N", "max_deflection_m",
+                                       "energy_absorbed_J")})
+        table.add_row(f"{v:g}", f"{3.6 * v:.1f}", f"{r['peak_force_N'] / 1e3:.0f}",
+                      f"{r['max_deflection_m'] * 1e3:.1f}", f"{r['energy_absorbed_J'] / 1e3:.2f}",
+                      f"{r['energy_absorbed_J'] / rel_ke:.0%}")
+    console.print(table)
+    if csv is not None:
+        from ltdsim.io import atomic_path
+
+        with atomic_path(csv) as tmp:
+            pd.DataFrame(rows).to_csv(tmp, index=False)
+        console.print(f"table written to {csv}")
+
+
+@app.command()
+def reduce(
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 0,
+    mass: Annotated[float, typer.Option(help="rig mass, kg")] = 8.1e5,
+    dt: Annotated[float, typer.Option(help="rig step, s")] = 5e-4,
+    workers: Annotated[int, typer.Option(help="parallel processes (-1: all cores)")] = -1,
+    maxiter: Annotated[int, typer.Option(help="generations at most")] = 1000,
+    seed: Annotated[int, typer.Option(help="random seed")] = 0,
+    plot: Annotated[Path, typer.Option("--plot", "-p")] = Path("results/reduction.png"),
+    toml: Annotated[Optional[Path], typer.Option(help="write the fitted coupler as TOML")] = None,
+) -> None:
+    """Fit the simplified coupler to a detailed gear under the study's chain of sines."""
+    from ltdsim.reduce import reduce_gear
+
+    try:
+        target = _gear_params(preset, scenario, coupler)
+    except ScenarioError as exc:
+        _fail(exc)
+        return
+    with Progress(TextColumn("[bold]fitting"), BarColumn(), TextColumn("generation {task.completed}"),
+                  TextColumn("cost {task.fields[cost]:.3e} N^2"), TimeElapsedColumn(),
+                  console=err_console) as prog:
+        task = prog.add_task("fit", total=maxiter, cost=float("nan"))
+        result = reduce_gear(target, mass=mass, dt=dt, workers=workers, maxiter=maxiter,
+                             seed=seed, progress=lambda g, n, c: prog.update(task, completed=g,
+                                                                              cost=c))
+    table = Table(title=f"Simplified coupler fitted to {preset or scenario}")
+    table.add_column("parameter")
+    table.add_column("value", justify="right")
+    units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m", "v_c": "m/s"}
+    for k, v in result.parameters.items():
+        table.add_row(f"{k} [{units[k]}]", f"{v:.6g}")
+    table.add_row("fit [%]", f"{result.fit_percent:.2f}")
+    table.add_row("evaluations", str(result.evaluations))
+    console.print(table)
+    from ltdsim.plotting import save_reduction
+
+    save_reduction(result, plot, title=f"{preset or scenario}: detailed vs simplified")
+    console.print(f"figure written to {plot}")
+    if toml is not None:
+        from ltdsim.io import atomic_path
+
+        with atomic_path(toml) as tmp:
+            tmp.write_text(result.toml(target.slack))
+        console.print(f"fitted coupler written to {toml}")
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 

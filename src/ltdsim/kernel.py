@@ -1,8 +1,10 @@
 """The compiled simulation loop: right-hand side, controller and Runge-Kutta stepping.
 
 Everything here runs under numba with flat arrays only (see :mod:`ltdsim.lowering` for
-the layout). The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1)]``: displacement of
-each vehicle from its initial position (m) and its speed (m/s). The discrete PID is
+the layout). The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of
+each vehicle from its initial position (m), its speed (m/s), and three internal states
+per hysteretic draft gear (internal force N, plate displacement m, impact speed m/s; see
+:mod:`ltdsim.physics.draftgear`). The discrete PID is
 sampled between steps and its output held over the step (zero-order hold), as a
 digital controller is; every continuous quantity is a pure function of ``(t, y)``, so
 any Runge-Kutta method can evaluate it any number of times per step.
@@ -14,13 +16,20 @@ import numpy as np
 from numba import njit
 
 from ltdsim.lowering import (
-    C_LINEAR, D_EVERY, D_FILT, D_INT, D_KD, D_KI, D_KP, D_MODE, D_N, D_TS, MODE_SPEED,
-    P_D0, P_DAMP, P_K1, P_K2, P_K3, P_PRELOAD, P_SLACK, P_STIFF, P_VC,
+    C_LINEAR, C_SIMPLIFIED, C_WEDGE, D_EVERY, D_FILT, D_INT, D_KD, D_KI, D_KP, D_MODE, D_N, D_TS, MODE_SPEED,
+    P_BACK, P_C1, P_C2, P_C3, P_D0, P_DAMP, P_G, P_GAP, P_H1, P_H2, P_H3, P_K1, P_K2, P_K3,
+    P_KLOCK, P_KM, P_KR, P_KSOLID, P_NLOAD, P_NUNL, P_PRELOAD, P_RATE, P_S, P_SLACK, P_SNV,
+    P_SNX, P_STAB, P_STIFF, P_TA, P_TB, P_TG, P_TLOAD, P_TRAVEL, P_TUNL, P_VC, P_XM0, P_XR0,
+    P_ZOFF,
     T_DMAX, T_AMAX, T_FF, T_FMAX, T_G, T_MADH, T_MTOT, T_PMAX, T_REF,
     V_DA, V_DB, V_DC, V_DV0, V_MASS, V_P0, V_SHARE, V_WMASS,
 )
 from ltdsim.physics.control import pid_step
 from ltdsim.physics.couplers import coupler_linear, coupler_simplified
+from ltdsim.physics.draftgear import (
+    hysteresis, plate_rate, plates_carried, plates_out, s_table_lookup, table_curve,
+    wedge_curves,
+)
 from ltdsim.physics.resistance import curve_resistance, davis_resistance, grade_resistance
 from ltdsim.physics.traction import adhesion_limit, traction_limit
 
@@ -63,9 +72,97 @@ def _interp(xs, ys, x, hints, slot):
 
 
 @njit(cache=True, inline="always")
-def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac, drv,
-        prof_t, prof_y, dy, off, force, defl, res, sig, hints):
-    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + 2n]``.
+def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
+    """Force (N, + tension) of hysteretic gear ``j``; writes its state rates to ``dy``.
+
+    ``zo``/``dzo`` index the gear's three states in ``y``/``dy``: internal force F1 (N),
+    plate displacement p (m), impact speed v0 (m/s).
+    """
+    slack = cpl[j, P_SLACK]
+    h = 0.5 * slack
+    rate = cpl[j, P_RATE]
+    f1 = y[zo]
+    p = y[zo + 1]
+    v0 = y[zo + 2]
+    wedge = model == C_WEDGE
+    gap = cpl[j, P_GAP]
+    delta = cpl[j, P_BACK]
+    in_slack = False
+    if d > h:
+        x = d - h
+        sgn = 1.0
+    elif d < -h:
+        x = -(d + h)
+        sgn = -1.0
+    elif slack > 0.0:
+        in_slack = True
+        x = 0.0
+        sgn = 1.0
+    else:
+        x = 0.0
+        sgn = 1.0 if dd >= 0.0 else -1.0
+    v = sgn * dd  # > 0 while the gear closes
+    if wedge:
+        off = int(cpl[j, P_STAB])
+        if off >= 0:
+            s_factor = s_table_lookup(ctab, off, int(cpl[j, P_SNV]), int(cpl[j, P_SNX]), v0, x)
+        else:
+            s_factor = cpl[j, P_S]
+        u = x - gap
+        f_l, f_u, s_l, s_u = wedge_curves(
+            x, v, cpl[j, P_TA], cpl[j, P_TB], cpl[j, P_TG], cpl[j, P_G], cpl[j, P_C1],
+            cpl[j, P_C2], cpl[j, P_C3], cpl[j, P_H1], cpl[j, P_H2], cpl[j, P_H3], s_factor,
+            cpl[j, P_KM], cpl[j, P_XM0], cpl[j, P_KR], cpl[j, P_XR0], plates_out(p),
+            plates_carried(u, p, delta))
+    else:
+        f_l, s_l = table_curve(ctab, int(cpl[j, P_TLOAD]), int(cpl[j, P_NLOAD]), x)
+        f_u, s_u = table_curve(ctab, int(cpl[j, P_TUNL]), int(cpl[j, P_NUNL]), x)
+    if in_slack:
+        # no force. The gear extends fully and its wedges come free, so it meets the next
+        # load on its loading curve (F1 relaxes to f_l(0)); the plates go home; the
+        # impact speed follows the closing speed so that it holds its value at contact.
+        # (States within 1e-12 of rest stop there: an endless exponential decay ends in
+        # subnormal numbers, which are slow on every CPU.)
+        dy[dzo] = rate * (f_l - f1)
+        dy[dzo + 1] = plate_rate(-gap, p, 0.0, delta, rate) if p > 1e-12 else 0.0
+        dy[dzo + 2] = rate * (abs(dd) - v0)
+        return 0.0
+    over = x - cpl[j, P_TRAVEL]
+    if over > 0.0:  # closed solid
+        ks = cpl[j, P_KSOLID]
+        f_l += ks * over
+        f_u += ks * over
+        s_l += ks
+        s_u += ks
+    if f_u > f_l:
+        f_u = f_l
+    f, df1 = hysteresis(f1, f_l, f_u, s_l, s_u, v, cpl[j, P_KLOCK], rate)
+    if f < 0.0:
+        f = 0.0
+    dy[dzo] = df1
+    dy[dzo + 1] = plate_rate(x - gap, p, v, delta, rate) if wedge else 0.0
+    dy[dzo + 2] = 0.0
+    return sgn * f
+
+
+@njit(cache=True, inline="always")
+def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
+    """Force of coupler ``j`` (N, + tension) at deflection ``d`` (m) and rate ``dd``
+    (m/s). A hysteretic gear reads its states at ``y[z0 + offset]`` and writes their
+    rates to ``dy[dz0 + offset]``."""
+    if model == C_SIMPLIFIED:
+        return coupler_simplified(d, dd, cpl[j, P_SLACK], cpl[j, P_PRELOAD], cpl[j, P_DAMP],
+                                  cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_VC])
+    if model == C_LINEAR:
+        return coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, P_STIFF], cpl[j, P_DAMP])
+    zo = int(cpl[j, P_ZOFF])
+    return _gear(j, model, d, dd, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
+
+
+@njit(cache=True, inline="always")
+def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac,
+        drv, prof_t, prof_y, dy, off, force, defl, res, sig, hints):
+    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + len(y)]``.
 
     Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
     per vehicle, N) and ``sig[0:2]`` (traction force N, speed of the reference vehicle m/s). ``hints``
@@ -98,11 +195,7 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, t
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
-        if cpl_model[j] == C_LINEAR:
-            f = coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, P_STIFF], cpl[j, P_DAMP])
-        else:
-            f = coupler_simplified(d, dd, cpl[j, P_SLACK], cpl[j, P_PRELOAD], cpl[j, P_DAMP],
-                                   cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_VC])
+        f = coupler_force(j, cpl_model[j], d, dd, y, 2 * n, dy, off + 2 * n, cpl, ctab)
         force[j] = f
         defl[j] = d
     for i in range(n):
@@ -115,15 +208,15 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, t
         dy[off + n + i] = f * inv_m[i]
 
 
-def work_size(n: int, stages: int) -> int:
-    """Length of the float work array :func:`run` needs for ``n`` vehicles."""
-    ny = 2 * n
+def work_size(n: int, ny: int, stages: int) -> int:
+    """Length of the float work array :func:`run` needs for ``n`` vehicles and a state
+    of ``ny`` elements."""
     return stages * ny + ny + 2 * max(n - 1, 1) + 2 * n + 2
 
 
 @njit(cache=True, _nrt=False)
 def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
-        veh, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y,
+        veh, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y,
         out_x, out_v, out_a, out_d, out_f, out_s, work, hints):
     """Advance ``y`` from step ``k_start`` to ``k_stop`` (time ``k dt``), recording.
 
@@ -176,7 +269,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
             ctrl[3] = vref
         a_dem = ctrl[2]
         # stage 1 is the right-hand side at (t_k, y_k): record it when due
-        rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac,
+        rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac,
             drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
         if c_rec == 0:
             _record(k // record_every, t, y, K, force, defl, sig, a_dem, speed_mode,
@@ -190,7 +283,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
                     o = j * ny
                     for q in range(ny):
                         ytmp[q] += w * K[o + q]
-            rhs(t + C[s] * dt, ytmp, a_dem, veh, inv_m, cpl_model, cpl, tpos, tgrade,
+            rhs(t + C[s] * dt, ytmp, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade,
                 tcurv, curve_h, trac, drv, prof_t, prof_y, K, s * ny, force, defl, res, sig,
                 hints)
         # y += dt * sum_s b_s K_s, increment summed first for accuracy
@@ -215,7 +308,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
             c_rec = 0
     if k_stop == n_steps:
         t = k_stop * dt
-        rhs(t, y, ctrl[2], veh, inv_m, cpl_model, cpl, tpos, tgrade, tcurv, curve_h, trac,
+        rhs(t, y, ctrl[2], veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac,
             drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
         _record(k_stop // record_every, t, y, K, force, defl, sig, ctrl[2], speed_mode,
                 prof_t, prof_y, hints, trac, veh, out_x, out_v, out_a, out_d, out_f, out_s)

@@ -55,11 +55,47 @@ def overview_figure(ds: xr.Dataset):
     return fig
 
 
-def save_overview(ds: xr.Dataset, path: str | Path, dpi: int = 110) -> Path:
+def save_overview(ds: xr.Dataset, path: str | Path) -> Path:
     """Write :func:`overview_figure` to ``path`` (PNG, SVG or PDF by suffix), atomically."""
     path = Path(path)
-    fig = overview_figure(ds)
+    return _save(overview_figure(ds), path)
+
+
+def save_gear_loop(ds: xr.Dataset, path: str | Path, title: str = "") -> Path:
+    """Force-deflection loop of a gear run (:func:`ltdsim.gear.drive_deflection`)."""
+    fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
+    ax.plot(ds.deflection * 1e3, ds.force / 1e3, lw=1.0)
+    ax.set_xlabel("deflection [mm] (+ draft)")
+    ax.set_ylabel("force [kN] (+ tension)")
+    ax.grid(alpha=0.3)
+    ax.set_title(title or "gear force-deflection loop")
+    return _save(fig, path)
+
+
+def save_reduction(result, path: str | Path, title: str = "") -> Path:
+    """The study's Fig. 3: detailed and fitted simplified gear forces over time and
+    against deflection."""
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 5), constrained_layout=True)
+    a1.plot(result.time, result.target_force / 1e3, lw=0.8, label="detailed gear")
+    a1.plot(result.time, result.fitted_force / 1e3, lw=0.8, ls="--", label="simplified, fitted")
+    a1.set_xlabel("time [s]")
+    a1.set_ylabel("gear force [kN]")
+    a1.legend()
+    a1.grid(alpha=0.3)
+    a2.plot(result.target_deflection * 1e3, result.target_force / 1e3, lw=0.6, label="detailed")
+    a2.plot(result.target_deflection * 1e3, result.fitted_force / 1e3, lw=0.6, ls="--",
+            label="simplified (same deflection record)")
+    a2.set_xlabel("deflection of the detailed gear [mm]")
+    a2.set_ylabel("force [kN]")
+    a2.grid(alpha=0.3)
+    a2.legend()
+    fig.suptitle((title + "; " if title else "") + f"fit {result.fit_percent:.1f} %")
+    return _save(fig, path)
+
+
+def _save(fig, path) -> Path:
+    path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
     return path

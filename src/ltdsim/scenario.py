@@ -109,14 +109,59 @@ class Vehicle(_Strict):
         return self.mass if self.static_mass is None else self.static_mass
 
 
-_COUPLER_MODELS = ("linear", "simplified")
-_REQUIRED = {"linear": ("stiffness",), "simplified": ("k1", "k3", "v_c")}
+_COUPLER_MODELS = ("linear", "simplified", "friction_wedge", "table")
+CouplerModel = Literal["linear", "simplified", "friction_wedge", "table"]
+_REQUIRED = {
+    "linear": ("stiffness",),
+    "simplified": ("k1", "k3", "v_c"),
+    "friction_wedge": ("alpha_deg", "beta_deg", "gamma_deg", "h1", "h2", "h3", "k_locked",
+                       "k_m", "k_r", "x_m0", "x_r0", "plate_gap", "travel"),
+    "table": ("loading", "unloading", "k_locked"),
+}
+_GEAR_DIR = Path(__file__).parent / "data" / "gears"
+
+
+def gear_presets() -> list[str]:
+    """Names of the shipped draft-gear parameter sets (``preset = NAME`` in a coupler)."""
+    return sorted(p.stem for p in _GEAR_DIR.glob("*.toml"))
+
+
+def load_gear_preset(name: str) -> dict:
+    """The keys of gear parameter set ``name`` (see :func:`gear_presets`)."""
+    path = _GEAR_DIR / f"{name}.toml"
+    if not path.is_file():
+        raise ValueError(f"unknown preset {name!r}; available: {', '.join(gear_presets())}")
+    with path.open("rb") as fh:
+        return tomllib.load(fh)
+
+
+class STable(_Strict):
+    """Lubrication factor S(impact speed, deflection) as a 2-D table (paper Eq. 2)."""
+
+    velocity: list[float] = Field(min_length=1, description="impact speeds, m/s")
+    deflection: list[float] = Field(min_length=1, description="gear deflections, m")
+    values: list[list[float]] = Field(min_length=1, description="S, one row per speed, -")
+
+    @model_validator(mode="after")
+    def _shape(self):
+        for name in ("velocity", "deflection"):
+            xs = getattr(self, name)
+            if any(b <= a for a, b in zip(xs, xs[1:])):
+                raise ValueError(f"{name} must be strictly increasing, got {xs}")
+        if len(self.values) != len(self.velocity) or any(
+                len(r) != len(self.deflection) for r in self.values):
+            raise ValueError(f"values must be {len(self.velocity)} rows (speeds) of "
+                             f"{len(self.deflection)} numbers (deflections)")
+        if any(not 0.0 <= v <= 10.0 for r in self.values for v in r):
+            raise ValueError("S values must lie in [0, 10]")
+        return self
 
 
 class CouplerParams(_Strict):
     """Parameters of one coupler (draft gear and slack)."""
 
-    model: Literal["linear", "simplified"] = "simplified"
+    preset: str | None = Field(None, description="named gear parameter set to start from")
+    model: CouplerModel = "simplified"
     slack: float = Field(0.0, ge=0.0, le=1.0, description="total free play, m")
     preload: float = Field(0.0, ge=0.0, le=1e7, description="N")
     damping: float = Field(0.0, ge=0.0, le=1e9, description="N s/m")
@@ -125,20 +170,87 @@ class CouplerParams(_Strict):
     k2: float = Field(0.0, ge=0.0, le=1e12, description="nonlinear, N/m")
     k3: float | None = Field(None, gt=0.0, le=1e12, description="linear, N/m")
     v_c: float | None = Field(None, gt=0.0, le=1e3, description="critical velocity, m/s")
+    # friction_wedge (paper Eq. 1-7)
+    alpha_deg: float | None = Field(None, gt=0.0, lt=89.0, description="wedge angle, deg")
+    beta_deg: float | None = Field(None, ge=0.0, lt=89.0, description="wedge angle, deg")
+    gamma_deg: float | None = Field(None, gt=0.0, lt=89.0, description="wedge angle, deg")
+    h1: float | None = Field(None, ge=0.0, le=1.0, description="kinetic friction, -")
+    h2: float | None = Field(None, ge=0.0, le=1.0, description="static excess, -")
+    h3: float | None = Field(None, ge=0.0, le=100.0, description="friction decay, s/m")
+    S: float | None = Field(None, ge=0.0, le=10.0, description="lubrication factor, -")
+    S_table: STable | None = None
+    k_m: float | None = Field(None, gt=0.0, le=1e10, description="main spring, N/m")
+    k_r: float | None = Field(None, ge=0.0, le=1e10, description="release spring, N/m")
+    x_m0: float | None = Field(None, ge=0.0, le=1.0, description="main pre-deflection, m")
+    x_r0: float | None = Field(None, ge=0.0, le=1.0, description="release pre-deflection, m")
+    plate_gap: float | None = Field(None, ge=0.0, le=1.0, description="m")
+    plate_backlash: float = Field(0.003, ge=0.0, le=1.0, description="m")
+    # friction_wedge and table
+    k_locked: float | None = Field(None, gt=0.0, le=1e11, description="locked stiffness, N/m")
+    travel: float | None = Field(None, gt=0.0, le=1.0, description="travel to closure, m")
+    solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12, description="beyond travel, N/m")
+    tracking_time: float | None = Field(None, gt=0.0, le=1.0,
+                                        description="internal-state time constant, s")
+    # table
+    loading: Points | None = Field(None, description="[deflection m, force N]")
+    unloading: Points | None = Field(None, description="[deflection m, force N]")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _preset(cls, data):
+        if isinstance(data, dict) and data.get("preset"):
+            base = load_gear_preset(data["preset"])
+            base.update({k: v for k, v in data.items() if v is not None})
+            return base
+        return data
 
     @model_validator(mode="after")
     def _complete(self):
         missing = [k for k in _REQUIRED[self.model] if getattr(self, k) is None]
+        if self.model == "friction_wedge" and self.S is None and self.S_table is None:
+            missing.append("S or S_table")
         if missing:
             raise ValueError(f"model {self.model!r} needs {', '.join(missing)}")
+        if self.model == "friction_wedge":
+            self._check_wedge()
+        if self.model == "table":
+            self._check_table_gear()
         return self
+
+    def _check_wedge(self):
+        if self.alpha_deg + self.gamma_deg >= 85.0:
+            raise ValueError("alpha_deg + gamma_deg must stay below 85 deg (the wedge locks)")
+        # psi_1's denominator must stay positive at the largest friction coefficient
+        mu = self.h1 + self.h2
+        a, g = math.radians(self.alpha_deg), math.radians(self.gamma_deg)
+        if math.tan(a + math.atan(mu)) * math.tan(g + math.atan(mu)) >= 1.0:
+            raise ValueError("wedge angles too steep for the friction: the gear would lock "
+                             "(tan(alpha + atan mu) tan(gamma + atan mu) >= 1)")
+        if self.k_m * self.x_m0 < self.k_r * self.x_r0:
+            raise ValueError("k_m x_m0 must be at least k_r x_r0, or unloading would lie "
+                             "above loading")
+
+    def _check_table_gear(self):
+        for name in ("loading", "unloading"):
+            pts = getattr(self, name)
+            _check_table(pts, f"{name} deflections, m", lambda f: 0.0 <= f <= 1e8,
+                         "forces in [0, 1e8] N")
+            if pts[0][0] != 0.0:
+                raise ValueError(f"{name} must start at deflection 0")
+        xs = sorted({p[0] for p in self.loading} | {p[0] for p in self.unloading})
+        import numpy as np
+
+        fl = np.interp(xs, *zip(*self.loading))
+        fu = np.interp(xs, *zip(*self.unloading))
+        if np.any(fu > fl + 1e-9 * fl.max()):
+            raise ValueError("the unloading curve must not lie above the loading curve")
 
 
 def _all_optional(model: type[BaseModel], name: str, doc: str, **extra) -> type[BaseModel]:
     """A model with every field of ``model`` optional (default None), same ranges."""
     fields = {}
     for key, f in model.model_fields.items():
-        kind = Optional[f.annotation]
+        kind = Optional[f.annotation]  # noqa: UP007 (needed for Annotated metadata)
         if f.metadata:
             kind = Annotated[kind, *f.metadata]
         fields[key] = (kind, Field(None, description=f.description))
@@ -229,6 +341,8 @@ class Initial(_Strict):
     """Initial state of the train."""
 
     speed: float = Field(0.0, ge=0.0, le=150.0, description="all vehicles, m/s")
+    velocities: list[Annotated[float, Field(ge=-150.0, le=150.0)]] | None = Field(
+        None, description="one speed per vehicle, m/s (instead of speed)")
     couplers: Literal["neutral", "stretched", "bunched"] = "neutral"
 
 
@@ -268,6 +382,9 @@ class Scenario(_Strict):
             raise ValueError("vehicles: at least one vehicle needs powered = true")
         if n > 1 and self.couplers is None:
             raise ValueError("a train of more than one vehicle needs [couplers.default]")
+        vel = self.initial.velocities
+        if vel is not None and len(vel) != n:
+            raise ValueError(f"initial.velocities has {len(vel)} values for {n} vehicles")
         pid = self.driver.pid
         if self.driver.mode == "speed" and pid is not None:
             ratio = pid.ts / self.solver.dt
@@ -303,7 +420,10 @@ class Scenario(_Strict):
         params = self.couplers.default.model_dump()
         for o in self.couplers.override:
             if o.index == i:
-                params.update(o.model_dump(exclude_none=True, exclude={"index"}))
+                changed = o.model_dump(exclude_none=True, exclude={"index"})
+                if "preset" in changed:  # a preset in an override replaces the default
+                    params = {"slack": params["slack"]}
+                params.update(changed)
         return CouplerParams.model_validate(params)
 
     @classmethod

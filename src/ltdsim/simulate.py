@@ -103,7 +103,7 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
     y = low.y0.copy()
     ctrl = np.zeros(kernel.N_CTRL)
     tab = low.tableau
-    work = np.zeros(kernel.work_size(n, tab.stages))
+    work = np.zeros(kernel.work_size(n, y.shape[0], tab.stages))
     hints = np.zeros(n + 2, dtype=np.int64)
     # chunk boundaries on whole output intervals
     per = max(1, (n_rec - 1) // max(chunks, 1)) * low.record_every
@@ -112,7 +112,7 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
         k_stop = 0 if compile_only else min(k + per, low.n_steps)
         status, k_end = kernel.run(
             y, ctrl, k, k_stop, low.n_steps, low.record_every, low.dt, tab.A, tab.b, tab.c,
-            low.veh, low.cpl_model, low.cpl, low.track_pos, low.track_grade, low.track_curv,
+            low.veh, low.cpl_model, low.cpl, low.ctab, low.track_pos, low.track_grade, low.track_curv,
             low.curve_h, low.trac, low.drv, low.prof_t, low.prof_y,
             rec["x"], rec["v"], rec["a"], rec["d"], rec["f"], rec["s"], work, hints)
         if compile_only:

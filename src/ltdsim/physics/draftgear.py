@@ -1,0 +1,315 @@
+"""Friction draft gears: the four-stage wedge-spring gear (paper Eq. 1-7) and table gears.
+
+Both are hysteretic: the force lies between an unloading curve ``f_u`` and a loading
+curve ``f_l`` of the gear deflection ``x >= 0`` (and speed). Which curve acts depends on
+history, and history must not hide inside a right-hand side that a Runge-Kutta method
+evaluates several times per step. So, as MODEL.md §3 prescribes, the gear carries an
+internal force ``F1`` in the ODE state, and the force used is ``F = clip(F1, f_u, f_l)``
+(paper Eq. 7). Its rate is
+
+    dF1/dt = (k_locked + s_band) v + K (F - F1)
+
+where ``s_band`` is the slope of the band at the gear's place in it (the unloading
+curve's slope at ``f_u``, the loading curve's at ``f_l``, interpolated between). On a
+curve the anti-windup term (rate ``K``, 1/s) holds ``F1`` on it; after a reversal the
+gear is "locked" (Eq. 5-6) and crosses the band at ``k_locked`` relative to it, joining
+the other curve after a deflection ``(f_l - f_u) / k_locked``. Where a curve steps (a
+stage change) the force stays continuous and rejoins the curve the same way.
+
+This departs from a literal ``dF1/dt = k_locked v`` (MODEL.md): with the study's high
+set ``k_locked`` (8 MN/m) is below the loading curve's slope (about 30 MN/m), and the
+literal form would never reach the loading curve and would drag the force along the
+unloading curve while loading (docs/draftgear.md). A gear in its slack extends fully and
+its wedges come free, so it meets the next load on its loading curve.
+
+The movable plates of the wedge gear engage after a gap ``x_gap``. Their displacement
+``p`` is a second state: the follower pushes them on loading; on unloading they stay
+put (friction) until the spring seat, returning by the backlash ``delta``, picks them
+up and carries them home. This gives the paper's four stages in their order:
+loading 1 (follower short of the plates), loading 2 (pushing the plates), unloading 1
+(plates at rest), unloading 2 (plates carried back by the main spring).
+
+The third state ``v0`` latches the closing speed at the moment of impact (while the
+coupling is in its slack it follows the closing speed; in contact it holds), the
+"initial impact velocity" of the lubrication factor ``S(v0, x)`` of Eq. 2.
+
+All functions take magnitudes: ``x = |e| >= 0`` and ``v = d|e|/dt`` (> 0 loading). The
+kernel applies the sign of draft or buff.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit, vectorize
+
+
+
+@njit(cache=True, inline="always")
+def friction_coefficient(h1, h2, h3, v):
+    """Velocity-dependent friction ``mu = h1 + h2 exp(-h3 |v|)`` (paper Eq. 3), -.
+
+    ``h1`` kinetic part, ``h2`` static excess, ``h3`` decay, s/m; ``v`` sliding speed, m/s.
+    """
+    return h1 + h2 * math.exp(-h3 * abs(v))
+
+
+@njit(cache=True, inline="always")
+def _tan_plus(t, mu):
+    """tan(a + atan(mu)) from t = tan(a), without trigonometric calls."""
+    return (t + mu) / (1.0 - mu * t)
+
+
+@njit(cache=True, inline="always")
+def _tan_minus(t, mu):
+    """tan(a - atan(mu)) from t = tan(a)."""
+    return (t - mu) / (1.0 + mu * t)
+
+
+@njit(cache=True, inline="always")
+def psi_loading(ta, tb, tg, mu1, mu2, mu3):
+    """psi_1, the loading force ratio without the movable plates (paper Eq. 1)."""
+    tg1 = _tan_plus(tg, mu1)
+    return (1.0 + _tan_plus(tb, mu3) * tg1) / (1.0 - _tan_plus(ta, mu2) * tg1)
+
+
+@njit(cache=True, inline="always")
+def psi_unloading(ta, tb, tg, mu1, mu2, mu3):
+    """psi_3, the unloading force ratio without the movable plates (paper Eq. 1)."""
+    tg1 = _tan_minus(tg, mu1)
+    return (1.0 + _tan_minus(tb, mu3) * tg1) / (1.0 - _tan_minus(ta, mu2) * tg1)
+
+
+@njit(cache=True, inline="always")
+def psi_plates_loading(psi1, tg, mu1, mu4):
+    """psi_2 from psi_1: loading with the movable plates (friction mu4) engaged."""
+    return psi1 + 2.0 * (1.0 - mu1 * tg) * mu4 * (psi1 - 1.0) / (mu1 + tg)
+
+
+@njit(cache=True, inline="always")
+def psi_plates_unloading(psi3, tg, mu1, mu4):
+    """psi_4 from psi_3: unloading with the movable plates carried back."""
+    return (tg - mu1) * psi3 / (tg * (1.0 - 2.0 * mu1 * mu4 + 2.0 * mu1 * mu4 * psi3)
+                                + 2.0 * mu4 * psi3 - 2.0 * mu4 - mu1)
+
+
+@njit(cache=True, inline="always")
+def wedge_psi(ta, tb, tg, mu1, mu2, mu3, mu4):
+    """Force ratios psi_1..psi_4 of the four stages (paper Eq. 1).
+
+    ``ta, tb, tg`` are tan(alpha), tan(beta), tan(gamma) of the wedge angles;
+    ``mu1..mu4`` the friction coefficients of the wedge-shoe/inner-plate (lubricated),
+    central-wedge/shoe, spring-seat/shoe and movable-plate surfaces.
+    """
+    psi1 = psi_loading(ta, tb, tg, mu1, mu2, mu3)
+    psi3 = psi_unloading(ta, tb, tg, mu1, mu2, mu3)
+    return (psi1, psi_plates_loading(psi1, tg, mu1, mu4), psi3,
+            psi_plates_unloading(psi3, tg, mu1, mu4))
+
+
+@njit(cache=True, inline="always")
+def wedge_geometry(alpha, beta, gamma):
+    """``(tan a, tan b, tan g, G, c1, c2, c3)`` for wedge angles in rad.
+
+    ``G = cos a cos(g - b) / (cos(a + g) cos b)`` is the main-spring lever ratio; c1..c3
+    turn the gear speed into the sliding speeds v1..v3 of paper Eq. 4.
+    """
+    cag = math.cos(alpha + gamma)
+    big_g = math.cos(alpha) * math.cos(gamma - beta) / (cag * math.cos(beta))
+    c1 = math.cos(alpha) / cag
+    c2 = math.sin(gamma) / cag
+    c3 = math.cos(alpha) * math.sin(gamma) / (cag * math.cos(beta))
+    return math.tan(alpha), math.tan(beta), math.tan(gamma), big_g, c1, c2, c3
+
+
+@njit(cache=True, inline="always")
+def spring_forces(x, big_g, k_m, x_m0, k_r, x_r0):
+    """Main and release spring forces at gear deflection ``x``, N (paper Eq. 1).
+
+    ``F_sm = k_m (x_m0 + G x)``; ``F_sr = k_r (x_r0 + x_rdg)`` with
+    ``x_rdg = -x (G - 1)`` (the release spring extends as the gear closes). A release
+    spring extended past its free length carries no force (``F_sr >= 0``).
+    """
+    fsr = k_r * (x_r0 - (big_g - 1.0) * x)
+    return k_m * (x_m0 + big_g * x), fsr if fsr > 0.0 else 0.0
+
+
+@njit(cache=True, inline="always")
+def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r,
+                 x_r0, plates_loading, plates_unloading):
+    """Loading and unloading forces ``(f_l, f_u)`` of the wedge gear at ``x`` (N) and
+    their slopes ``(df_l/dx, df_u/dx)`` (N/m).
+
+    ``v`` is the gear speed magnitude, m/s; ``plates_loading`` / ``plates_unloading``
+    say whether the movable plates take part (stage 2 / stage 4) on each curve.
+    """
+    s = abs(v)
+    mu1 = friction_coefficient(h1, h2, h3, c1 * s) * s_factor
+    mu2 = friction_coefficient(h1, h2, h3, c2 * s)
+    mu3 = friction_coefficient(h1, h2, h3, c3 * s)
+    pl = psi_loading(ta, tb, tg, mu1, mu2, mu3)
+    if plates_loading:
+        pl = psi_plates_loading(pl, tg, mu1, friction_coefficient(h1, h2, h3, s))
+    pu = psi_unloading(ta, tb, tg, mu1, mu2, mu3)
+    if plates_unloading:
+        pu = psi_plates_unloading(pu, tg, mu1, friction_coefficient(h1, h2, h3, big_g * s))
+    fsm, fsr = spring_forces(x, big_g, k_m, x_m0, k_r, x_r0)
+    dsm = k_m * big_g  # d F_sm / dx
+    dsr = -k_r * (big_g - 1.0) if fsr > 0.0 else 0.0  # d F_sr / dx
+    return (pl * fsm - (pl - 1.0) * fsr, pu * fsm - (pu - 1.0) * fsr,
+            pl * dsm - (pl - 1.0) * dsr, pu * dsm - (pu - 1.0) * dsr)
+
+
+@njit(cache=True, inline="always")
+def hysteresis(f1, f_l, f_u, s_l, s_u, v, k_locked, rate):
+    """Force in the hysteresis band and the rate of the internal force.
+
+    Returns ``(F, dF1/dt)``: ``F = clip(F1, f_u, f_l)`` (N) and
+    ``(k_locked + s_band) v + rate (F - F1)`` (N/s) with ``s_band`` the band's slope
+    (N/m) at F's place between the curves. ``v = dx/dt`` (m/s), ``rate`` in 1/s.
+    """
+    f = min(max(f1, f_u), f_l)
+    width = f_l - f_u
+    if width > 1e-9 * (abs(f_l) + 1.0):
+        w = (f - f_u) / width
+        s_band = s_u + w * (s_l - s_u)
+    else:
+        s_band = s_l
+    return f, (k_locked + s_band) * v + rate * (f - f1)
+
+
+#: contact tolerance between follower, spring seat and plates, m. The plate state tracks
+#: the follower exactly while pushed; without a tolerance the test "follower at the
+#: plates" would flip from step to step on rounding.
+PLATE_TOL = 1e-4
+
+
+@njit(cache=True, inline="always")
+def plates_pushed(u, p):
+    """Is the follower (at ``u = x - x_gap``, m) pushing the plates (at ``p``, m)?"""
+    return u >= p - PLATE_TOL
+
+
+@njit(cache=True, inline="always")
+def plates_out(p):
+    """Are the plates displaced from home? Then the loading curve includes their friction
+    (stage 2): loading from here pushes them again within the backlash, and taking them
+    off the loading curve at every reversal would drop the force without any motion."""
+    return p > PLATE_TOL
+
+
+@njit(cache=True, inline="always")
+def plates_carried(u, p, delta):
+    """Is the returning spring seat carrying the plates home (backlash ``delta``, m)?"""
+    return p > PLATE_TOL and u <= p - delta + PLATE_TOL
+
+
+@njit(cache=True, inline="always")
+def plate_rate(u, p, v, delta, rate):
+    """d p/dt of the movable plates: pushed by the follower (``u = x - x_gap >= p``),
+    carried home by the spring seat (``u <= p - delta``), else at rest; plus a pull of
+    rate ``rate`` (1/s) onto that admissible band so the state cannot drift."""
+    lo = u if u > 0.0 else 0.0
+    up = u + delta
+    hi = up if up > 0.0 else 0.0
+    dp = 0.0
+    if v > 0.0 and plates_pushed(u, p):
+        dp = v
+    elif v < 0.0 and plates_carried(u, p, delta):
+        dp = v
+    target = min(max(p, lo), hi)
+    return dp + rate * (target - p)
+
+
+@njit(cache=True)
+def s_table_lookup(tab, off, nv, nx, v0, x):
+    """Bilinear lookup of the lubrication factor S(v0, x) stored flat in ``tab``:
+    ``nv`` impact speeds (m/s), ``nx`` deflections (m), then ``nv x nx`` values (row per
+    speed). Clamped at the table edges."""
+    vs = tab[off:off + nv]
+    xs = tab[off + nv:off + nv + nx]
+    vals = tab[off + nv + nx:off + nv + nx + nv * nx]
+    i, wi = _bracket(vs, v0)
+    j, wj = _bracket(xs, x)
+    i1 = min(i + 1, nv - 1)
+    j1 = min(j + 1, nx - 1)
+    a = vals[i * nx + j] * (1.0 - wj) + vals[i * nx + j1] * wj
+    b = vals[i1 * nx + j] * (1.0 - wj) + vals[i1 * nx + j1] * wj
+    return a * (1.0 - wi) + b * wi
+
+
+@njit(cache=True, inline="always")
+def _bracket(xs, x):
+    """Index ``k`` and weight ``w`` with ``x ~ xs[k] (1-w) + xs[k+1] w``, clamped."""
+    m = xs.shape[0]
+    if m == 1 or x <= xs[0]:
+        return 0, 0.0
+    if x >= xs[m - 1]:
+        return m - 1, 0.0
+    k = 0
+    while xs[k + 1] < x:
+        k += 1
+    return k, (x - xs[k]) / (xs[k + 1] - xs[k])
+
+
+@njit(cache=True)
+def table_curve(tab, off, n, x):
+    """Force (N) and slope (N/m) of a force-deflection curve stored as ``n`` deflections
+    (m) then ``n`` forces (N) at ``tab[off:]``; linear between points, constant beyond."""
+    xs = tab[off:off + n]
+    f = tab[off + n:off + 2 * n]
+    k, w = _bracket(xs, x)
+    if k + 1 >= n or x <= xs[0]:
+        return f[min(k, n - 1)], 0.0
+    slope = (f[k + 1] - f[k]) / (xs[k + 1] - xs[k])
+    return f[k] * (1.0 - w) + f[k + 1] * w, slope
+
+
+@vectorize(["float64(float64, float64, float64, float64, float64, float64, float64, float64,"
+            " float64, float64, float64, float64, float64, float64, float64, float64)"],
+           cache=True)
+def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor, k_m, x_m0, k_r,
+                           x_r0, x_gap, delta, plates):
+    """Quasi-static force of the wedge gear (paper Eq. 1 at zero speed), N.
+
+    Parameters
+    ----------
+    x : float or array
+        Gear deflection, m (>= 0).
+    loading : float
+        1 for the loading curve, 0 for the unloading curve.
+    alpha, beta, gamma : float
+        Wedge angles, rad.
+    h1, h2, h3 : float
+        Friction law coefficients (Eq. 3), -, -, s/m.
+    s_factor : float
+        Lubrication factor S on mu_1, -.
+    k_m, x_m0, k_r, x_r0 : float
+        Main and release spring stiffness (N/m) and pre-deflection (m).
+    x_gap, delta : float
+        Plate gap and backlash, m (used only to decide ``plates`` when it is < 0).
+    plates : float
+        1 with the movable plates engaged (stage 2 or 4), 0 without, -1 to decide from
+        ``x > x_gap`` (loading) or ``x > x_gap + delta`` (unloading from deeper).
+    """
+    ta, tb, tg, big_g, c1, c2, c3 = wedge_geometry(alpha, beta, gamma)
+    if plates < 0.0:
+        engaged = x > x_gap if loading > 0.5 else x > x_gap + delta
+    else:
+        engaged = plates > 0.5
+    f_l, f_u, _, _ = wedge_curves(x, 0.0, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor,
+                                  k_m, x_m0, k_r, x_r0, engaged, engaged)
+    return f_l if loading > 0.5 else f_u
+
+
+def geometry_ratio(alpha: float, beta: float, gamma: float) -> float:
+    """Main-spring lever ratio G of the wedge gear (angles in rad), -."""
+    return float(wedge_geometry(alpha, beta, gamma)[3])
+
+
+__all__ = [
+    "friction_coefficient", "psi_loading", "psi_unloading", "psi_plates_loading",
+    "psi_plates_unloading", "wedge_psi", "wedge_geometry", "spring_forces", "wedge_curves",
+    "hysteresis", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
+    "wedge_gear_quasistatic", "geometry_ratio",
+]
