@@ -137,22 +137,28 @@ def spring_forces(x, big_g, k_m, x_m0, k_r, x_r0):
 @njit(cache=True, inline="always")
 def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r,
                  x_r0, plates_loading, plates_unloading):
+    # plates_loading / plates_unloading: engagement of the movable plates, 0-1, scaling
+    # their friction mu4 (stage 2 / stage 4 at 1, stage 1 / stage 3 at 0)
     """Loading and unloading forces ``(f_l, f_u)`` of the wedge gear at ``x`` (N) and
     their slopes ``(df_l/dx, df_u/dx)`` (N/m).
 
     ``v`` is the gear speed magnitude, m/s; ``plates_loading`` / ``plates_unloading``
-    say whether the movable plates take part (stage 2 / stage 4) on each curve.
+    (0-1) say how far the movable plates take part (stage 2 / stage 4) on each curve:
+    their friction coefficient mu4 is scaled by it, so the curves change continuously as
+    the plates engage and disengage.
     """
     s = abs(v)
     mu1 = friction_coefficient(h1, h2, h3, c1 * s) * s_factor
     mu2 = friction_coefficient(h1, h2, h3, c2 * s)
     mu3 = friction_coefficient(h1, h2, h3, c3 * s)
     pl = psi_loading(ta, tb, tg, mu1, mu2, mu3)
-    if plates_loading:
-        pl = psi_plates_loading(pl, tg, mu1, friction_coefficient(h1, h2, h3, s))
+    if plates_loading > 0.0:
+        pl = psi_plates_loading(pl, tg, mu1,
+                                plates_loading * friction_coefficient(h1, h2, h3, s))
     pu = psi_unloading(ta, tb, tg, mu1, mu2, mu3)
-    if plates_unloading:
-        pu = psi_plates_unloading(pu, tg, mu1, friction_coefficient(h1, h2, h3, big_g * s))
+    if plates_unloading > 0.0:
+        pu = psi_plates_unloading(pu, tg, mu1,
+                                  plates_unloading * friction_coefficient(h1, h2, h3, big_g * s))
     fsm, fsr = spring_forces(x, big_g, k_m, x_m0, k_r, x_r0)
     dsm = k_m * big_g  # d F_sm / dx
     dsr = -k_r * (big_g - 1.0) if fsr > 0.0 else 0.0  # d F_sr / dx
@@ -191,11 +197,12 @@ def plates_pushed(u, p):
 
 
 @njit(cache=True, inline="always")
-def plates_out(p):
-    """Are the plates displaced from home? Then the loading curve includes their friction
-    (stage 2): loading from here pushes them again within the backlash, and taking them
-    off the loading curve at every reversal would drop the force without any motion."""
-    return p > PLATE_TOL
+def plates_out(p, ramp):
+    """Engagement (0-1) of the plates on the loading curve: they count as soon as they
+    are displaced from home (loading from there pushes them again within the backlash;
+    dropping them at every reversal would drop the force without motion), fading in
+    over the first ``ramp`` metres of their travel."""
+    return min(p / ramp, 1.0) if p > 0.0 else 0.0
 
 
 @njit(cache=True, inline="always")
@@ -289,14 +296,14 @@ def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor,
     x_gap, delta : float
         Plate gap and backlash, m (used only to decide ``plates`` when it is < 0).
     plates : float
-        1 with the movable plates engaged (stage 2 or 4), 0 without, -1 to decide from
-        ``x > x_gap`` (loading) or ``x > x_gap + delta`` (unloading from deeper).
+        Engagement of the movable plates, 1 (stage 2 or 4) to 0 (stage 1 or 3), or -1
+        to decide from ``x > x_gap`` (loading) or ``x > x_gap + delta`` (unloading).
     """
     ta, tb, tg, big_g, c1, c2, c3 = wedge_geometry(alpha, beta, gamma)
     if plates < 0.0:
-        engaged = x > x_gap if loading > 0.5 else x > x_gap + delta
+        engaged = 1.0 if (x > x_gap if loading > 0.5 else x > x_gap + delta) else 0.0
     else:
-        engaged = plates > 0.5
+        engaged = plates
     f_l, f_u, _, _ = wedge_curves(x, 0.0, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor,
                                   k_m, x_m0, k_r, x_r0, engaged, engaged)
     return f_l if loading > 0.5 else f_u
