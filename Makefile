@@ -21,9 +21,10 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
-## bench: kernel benchmark, table to benchmarks/results/
+## bench: benchmarks, tables to benchmarks/results/
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_kernel.py
+	$(BIN)/python benchmarks/bench_draftgear.py
 
 clean:
 	rm -rf $(VENV) results .pytest_cache .hypothesis

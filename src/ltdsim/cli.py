@@ -119,7 +119,9 @@ app.add_typer(gear_app, name="gear")
 
 
 def _gear_params(preset: Optional[str], scenario: Optional[Path], coupler: int):
-    from ltdsim.scenario import CouplerParams, gear_presets, load_scenario
+    from pydantic import ValidationError
+
+    from ltdsim.scenario import CouplerParams, _problems, gear_presets, load_scenario
 
     if (preset is None) == (scenario is None):
         raise ScenarioError("gear", [("", "give either --preset NAME or --scenario FILE "
@@ -127,8 +129,8 @@ def _gear_params(preset: Optional[str], scenario: Optional[Path], coupler: int):
     if preset is not None:
         try:
             return CouplerParams(preset=preset)
-        except Exception as exc:  # pydantic ValidationError
-            raise ScenarioError("--preset", [("preset", str(exc).splitlines()[-2].strip())])
+        except ValidationError as exc:
+            raise ScenarioError("--preset", _problems(exc)) from None
     sc = load_scenario(scenario)
     if not 0 <= coupler < sc.n_couplers:
         raise ScenarioError(str(scenario), [("--coupler", f"{coupler} out of range 0-"
@@ -221,7 +223,10 @@ def gear_impact(
 @app.command()
 def reduce(
     preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 0,
-    mass: Annotated[float, typer.Option(help="rig mass, kg")] = 8.1e5,
+    rig: Annotated[str, typer.Option(help="deflection (both gears follow the same motion) "
+                                          "or force (a mass pushed by the study's forces)")
+                   ] = "deflection",
+    mass: Annotated[float, typer.Option(help="rig mass of the force rig, kg")] = 8.1e5,
     dt: Annotated[float, typer.Option(help="rig step, s")] = 5e-4,
     workers: Annotated[int, typer.Option(help="parallel processes (-1: all cores)")] = -1,
     maxiter: Annotated[int, typer.Option(help="generations at most")] = 1000,
@@ -234,6 +239,8 @@ def reduce(
 
     try:
         target = _gear_params(preset, scenario, coupler)
+        if rig not in ("deflection", "force"):
+            raise ScenarioError("--rig", [("rig", f"must be deflection or force, got {rig!r}")])
     except ScenarioError as exc:
         _fail(exc)
         return
@@ -241,7 +248,7 @@ def reduce(
                   TextColumn("cost {task.fields[cost]:.3e} N^2"), TimeElapsedColumn(),
                   console=err_console) as prog:
         task = prog.add_task("fit", total=maxiter, cost=float("nan"))
-        result = reduce_gear(target, mass=mass, dt=dt, workers=workers, maxiter=maxiter,
+        result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers, maxiter=maxiter,
                              seed=seed, progress=lambda g, n, c: prog.update(task, completed=g,
                                                                               cost=c))
     table = Table(title=f"Simplified coupler fitted to {preset or scenario}")

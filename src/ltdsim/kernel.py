@@ -17,7 +17,7 @@ from numba import njit
 
 from ltdsim.lowering import (
     C_LINEAR, C_SIMPLIFIED, C_WEDGE, D_EVERY, D_FILT, D_INT, D_KD, D_KI, D_KP, D_MODE, D_N, D_TS, MODE_SPEED,
-    P_BACK, P_C1, P_C2, P_C3, P_D0, P_DAMP, P_G, P_GAP, P_H1, P_H2, P_H3, P_K1, P_K2, P_K3,
+    P_BACK, P_C1, P_C2, P_C3, P_D0, P_DAMP, P_F0, P_G, P_GAP, P_H1, P_H2, P_H3, P_K1, P_K2, P_K3,
     P_KLOCK, P_KM, P_KR, P_KSOLID, P_NLOAD, P_NUNL, P_PRELOAD, P_RATE, P_S, P_SLACK, P_SNV,
     P_SNX, P_STAB, P_STIFF, P_TA, P_TB, P_TG, P_TLOAD, P_TRAVEL, P_TUNL, P_VC, P_XM0, P_XR0,
     P_ZOFF,
@@ -101,6 +101,16 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     else:
         x = 0.0
         sgn = 1.0 if dd >= 0.0 else -1.0
+    if in_slack:
+        # no force. The gear extends fully and its wedges come free, so it meets the next
+        # load on its loading curve (F1 relaxes to the released force f_l(0)); the plates
+        # go home; the impact speed follows the closing speed so that it holds its value
+        # at contact. (States within 1e-12 of rest stop there: an endless exponential
+        # decay ends in subnormal numbers, which are slow on every CPU.)
+        dy[dzo] = rate * (cpl[j, P_F0] - f1)
+        dy[dzo + 1] = plate_rate(-gap, p, 0.0, delta, rate) if p > 1e-12 else 0.0
+        dy[dzo + 2] = rate * (abs(dd) - v0)
+        return 0.0
     v = sgn * dd  # > 0 while the gear closes
     if wedge:
         off = int(cpl[j, P_STAB])
@@ -118,16 +128,6 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     else:
         f_l, s_l = table_curve(ctab, int(cpl[j, P_TLOAD]), int(cpl[j, P_NLOAD]), x)
         f_u, s_u = table_curve(ctab, int(cpl[j, P_TUNL]), int(cpl[j, P_NUNL]), x)
-    if in_slack:
-        # no force. The gear extends fully and its wedges come free, so it meets the next
-        # load on its loading curve (F1 relaxes to f_l(0)); the plates go home; the
-        # impact speed follows the closing speed so that it holds its value at contact.
-        # (States within 1e-12 of rest stop there: an endless exponential decay ends in
-        # subnormal numbers, which are slow on every CPU.)
-        dy[dzo] = rate * (f_l - f1)
-        dy[dzo + 1] = plate_rate(-gap, p, 0.0, delta, rate) if p > 1e-12 else 0.0
-        dy[dzo + 2] = rate * (abs(dd) - v0)
-        return 0.0
     over = x - cpl[j, P_TRAVEL]
     if over > 0.0:  # closed solid
         ks = cpl[j, P_KSOLID]

@@ -28,8 +28,10 @@ MODEL_CODES = {"linear": C_LINEAR, "simplified": C_SIMPLIFIED, "friction_wedge":
  P_TA, P_TB, P_TG, P_G, P_C1, P_C2, P_C3, P_H1, P_H2, P_H3, P_S, P_STAB, P_SNV, P_SNX,
  P_KM, P_XM0, P_KR, P_XR0, P_GAP, P_BACK,
  # table: offsets and lengths of the loading and unloading curves in the table store
- P_TLOAD, P_NLOAD, P_TUNL, P_NUNL) = range(38)
-N_CCOL = 38
+ P_TLOAD, P_NLOAD, P_TUNL, P_NUNL,
+ # hysteretic gears: force of the released gear at zero deflection, N
+ P_F0) = range(39)
+N_CCOL = 39
 #: internal states per hysteretic gear: internal force, plate displacement, impact speed
 N_GEAR_STATES = 3
 # traction parameter vector
@@ -109,6 +111,7 @@ def lower(s: Scenario) -> Lowered:
             row[P_RATE] = 1.0 / (c.tracking_time or 4.0 * s.solver.dt)
             row[P_KLOCK] = c.k_locked
             row[P_KSOLID] = c.solid_stiffness
+            row[P_F0] = released_force(c)
         if c.model == "friction_wedge":
             _lower_wedge(c, row, tables)
         elif c.model == "table":
@@ -139,7 +142,7 @@ def lower(s: Scenario) -> Lowered:
     y0[n:2 * n] = s.initial.speed if s.initial.velocities is None else s.initial.velocities
     for i in range(nc):  # gears start released: internal force on the loading curve at 0
         if cpl[i, P_ZOFF] >= 0:
-            y0[2 * n + int(cpl[i, P_ZOFF])] = released_force(s.coupler(i))
+            y0[2 * n + int(cpl[i, P_ZOFF])] = cpl[i, P_F0]
     return Lowered(
         veh=veh, cpl_model=cpl_model, cpl=cpl,
         track_pos=track_pos, track_grade=track_grade, track_curv=track_curv,

@@ -55,29 +55,33 @@ def friction_coefficient(h1, h2, h3, v):
 
 
 @njit(cache=True, inline="always")
-def _tan_plus(t, mu):
-    """tan(a + atan(mu)) from t = tan(a), without trigonometric calls."""
-    return (t + mu) / (1.0 - mu * t)
-
-
-@njit(cache=True, inline="always")
-def _tan_minus(t, mu):
-    """tan(a - atan(mu)) from t = tan(a)."""
-    return (t - mu) / (1.0 + mu * t)
-
-
-@njit(cache=True, inline="always")
 def psi_loading(ta, tb, tg, mu1, mu2, mu3):
-    """psi_1, the loading force ratio without the movable plates (paper Eq. 1)."""
-    tg1 = _tan_plus(tg, mu1)
-    return (1.0 + _tan_plus(tb, mu3) * tg1) / (1.0 - _tan_plus(ta, mu2) * tg1)
+    """psi_1, the loading force ratio without the movable plates (paper Eq. 1).
+
+    ``(1 + tan(b + atan mu3) tan(g + atan mu1)) / (1 - tan(a + atan mu2) tan(g + atan mu1))``
+    with each ``tan(x + atan mu) = (tan x + mu) / (1 - mu tan x)`` multiplied out, so
+    that one division remains.
+    """
+    a = 1.0 - mu1 * tg
+    b = tg + mu1
+    c = 1.0 - mu3 * tb
+    e = tb + mu3
+    f = 1.0 - mu2 * ta
+    h = ta + mu2
+    return (c * a + e * b) * f / (c * (f * a - h * b))
 
 
 @njit(cache=True, inline="always")
 def psi_unloading(ta, tb, tg, mu1, mu2, mu3):
-    """psi_3, the unloading force ratio without the movable plates (paper Eq. 1)."""
-    tg1 = _tan_minus(tg, mu1)
-    return (1.0 + _tan_minus(tb, mu3) * tg1) / (1.0 - _tan_minus(ta, mu2) * tg1)
+    """psi_3, the unloading force ratio without the movable plates (paper Eq. 1): as
+    :func:`psi_loading` with every ``+ atan mu`` turned into ``- atan mu``."""
+    a = 1.0 + mu1 * tg
+    b = tg - mu1
+    c = 1.0 + mu3 * tb
+    e = tb - mu3
+    f = 1.0 + mu2 * ta
+    h = ta - mu2
+    return (c * a + e * b) * f / (c * (f * a - h * b))
 
 
 @njit(cache=True, inline="always")
