@@ -272,6 +272,132 @@ def reduce(
         console.print(f"fitted coupler written to {toml}")
 
 
+@app.command()
+def sweep(
+    file: Annotated[Path, typer.Argument(help="scenario file (its named cases) or sweep file")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
+        "results/sweep"),
+    scheduler: Annotated[Optional[str], typer.Option(help="Dask scheduler, tcp://HOST:PORT")
+                         ] = None,
+    workers: Annotated[Optional[int], typer.Option(help="local processes (default: all cores)")
+                       ] = None,
+    keep_results: Annotated[bool, typer.Option(help="also write each case's time series")] = False,
+    retry_failed: Annotated[bool, typer.Option(help="run failed cases again")] = False,
+    best_by: Annotated[str, typer.Option(help="rms_speed_error | max_tension | "
+                                              "max_compression | max_acceleration")
+                       ] = "rms_speed_error",
+    figures: Annotated[bool, typer.Option(help="phase figures (study Fig. 5-7) of the best "
+                                               "case")] = True,
+) -> None:
+    """Run many cases; resumable (finished cases are kept), local or on Dask."""
+    from ltdsim import sweep as sw
+
+    if best_by not in sw.CRITERIA:
+        _fail(ScenarioError("--best-by", [("best-by", f"one of {', '.join(sw.CRITERIA)}")]))
+        return
+    try:
+        spec = sw.load_sweep(file)
+    except ScenarioError as exc:
+        _fail(exc)
+        return
+    with Progress(TextColumn("[bold]sweep"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total} cases"), TimeElapsedColumn(),
+                  TimeRemainingColumn(), console=err_console) as prog:
+        task = prog.add_task("sweep", total=len(spec.cases))
+        try:
+            summary = sw.run_sweep(spec, output, scheduler=scheduler, workers=workers,
+                                   keep_results=keep_results, retry_failed=retry_failed,
+                                   progress=lambda d, n, c: prog.update(task, completed=d))
+        except KeyboardInterrupt:
+            err_console.print("[yellow]interrupted: finished cases are kept; run the same "
+                              "command again to resume[/]")
+            raise typer.Exit(130) from None
+    from ltdsim.io import atomic_path
+
+    with atomic_path(output / "summary.csv") as tmp:
+        summary.to_csv(tmp)
+    norms = sw.phase_norm_table(output, spec)
+    if not norms.empty:
+        with atomic_path(output / "phase_norms.csv") as tmp:
+            norms.to_csv(tmp, index=False)
+    table = Table(title=f"Sweep {file} ({len(spec.cases)} cases)")
+    for col in ("case", "status", "RMS speed error [m/s]", "max tension [kN]",
+                "max compression [kN]", "max |a| [m/s^2]"):
+        table.add_column(col, justify="right")
+    for case, row in summary.iterrows():
+        if row.status == "ok":
+            table.add_row(case, "ok", f"{row.rms_speed_error_m_s:.4f}",
+                          f"{row.max_tension_N / 1e3:.0f}", f"{row.max_compression_N / 1e3:.0f}",
+                          f"{row.max_abs_acceleration_m_s2:.2f}")
+        else:
+            table.add_row(case, str(row.status), str(row.get("error") or "")[:60], "", "", "")
+    console.print(table)
+    best = sw.best_case(summary, best_by)
+    if best is not None:
+        console.print(f"best case by {best_by}: [bold]{best}[/]")
+        if figures:
+            from ltdsim.phases import phase_figures
+            from ltdsim.simulate import simulate
+
+            sc = spec.scenario(next(c for c in spec.cases if c.id == best))
+            files = phase_figures(simulate(sc), output / "figures", sc, prefix=f"{best}_")
+            console.print(f"phase figures of {best} in {output / 'figures'} ({len(files)})")
+    failed = summary[summary.status != "ok"]
+    if len(failed):
+        console.print(f"[yellow]{len(failed)} case(s) did not finish; see {output}/cases[/]")
+    console.print(f"summary written to {output / 'summary.csv'}")
+
+
+@app.command()
+def phases(
+    file: Annotated[Path, typer.Argument(help="scenario file (TOML)")],
+    case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
+    output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
+        "results/phases"),
+) -> None:
+    """Phase norms (study Table 5), critical couplers, traction check and Fig. 5-7."""
+    from ltdsim.io import atomic_path
+    from ltdsim.phases import critical_couplers, phase_figures, phase_norms, traction_check
+    from ltdsim.scenario import load_scenario
+    from ltdsim.simulate import simulate
+
+    try:
+        sc = load_scenario(file, case=case)
+        ds = simulate(sc)
+    except (ScenarioError, SimulationError) as exc:
+        _fail(exc)
+        return
+    norms = phase_norms(ds, sc)
+    ranking = critical_couplers(norms)
+    check = traction_check(ds, sc)
+    output.mkdir(parents=True, exist_ok=True)
+    for name, frame in (("phase_norms_couplers.csv",
+                         norms[["coupler_force_2norm", "coupler_force_infnorm",
+                                "coupler_force_rms"]].to_dataframe()),
+                        ("phase_norms_vehicles.csv",
+                         norms[["acceleration_2norm", "acceleration_infnorm",
+                                "acceleration_rms"]].to_dataframe()),
+                        ("critical_couplers.csv", ranking), ("traction_check.csv", check)):
+        with atomic_path(output / name) as tmp:
+            frame.to_csv(tmp)
+    table = Table(title=f"Coupler force infinity-norm per phase [kN], {file}"
+                        + (f" [{case}]" if case else ""))
+    table.add_column("coupler", justify="right")
+    for ph in norms.phase.values:
+        table.add_column(str(ph), justify="right")
+    for j in norms.coupler.values:
+        table.add_row(str(j), *[f"{norms.coupler_force_infnorm.sel(phase=ph, coupler=j).item() / 1e3:.0f}"
+                                for ph in norms.phase.values])
+    console.print(table)
+    top = ranking[ranking["rank"] == 1]
+    console.print("critical coupler per phase: " + ", ".join(
+        f"{r.phase} -> {r.coupler}" for r in top.itertuples()))
+    over = int(check.loc[check.phase == "whole run", "samples_demand_over_adhesion"].item())
+    console.print(f"samples where traction demand exceeded adhesion: {over}")
+    files = phase_figures(ds, output, sc)
+    console.print(f"tables and {len(files)} figures written to {output}")
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 

@@ -36,8 +36,8 @@ from ltdsim.physics.traction import adhesion_limit, traction_limit
 #: kernel return codes
 OK, NONFINITE = 0, 1
 #: columns of the recorded scalar signals
-S_TRACTION, S_VREF, S_ADHESION, S_ADEM = range(4)
-N_SCALARS = 4
+S_TRACTION, S_VREF, S_ADHESION, S_ADEM, S_DEMAND = range(5)
+N_SCALARS = 5
 #: controller state: [PID integrator, PID filter, held demand m/s^2, last reference m/s]
 N_CTRL = 4
 
@@ -166,7 +166,8 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curv
     """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + len(y)]``.
 
     Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
-    per vehicle, N) and ``sig[0:2]`` (traction force N, speed of the reference vehicle m/s). ``hints``
+    per vehicle, N) and ``sig[0:3]`` (traction force N, speed of the reference vehicle
+    m/s, traction demand before the traction-curve limit N). ``hints``
     holds search cursors (``[0, n)`` track, ``n`` force and ``n + 1`` speed profile); they change
     only how fast a lookup is, never its result.
     """
@@ -193,6 +194,7 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curv
     ftr = min(max(fd, -lim), lim)
     sig[0] = ftr
     sig[1] = vl
+    sig[2] = fd
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
@@ -212,7 +214,7 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curv
 def work_size(n: int, ny: int, stages: int) -> int:
     """Length of the float work array :func:`run` needs for ``n`` vehicles and a state
     of ``ny`` elements."""
-    return stages * ny + ny + 2 * max(n - 1, 1) + 2 * n + 2
+    return stages * ny + ny + 2 * max(n - 1, 1) + 2 * n + 3
 
 
 @njit(cache=True, _nrt=False)
@@ -249,7 +251,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
     o += n
     inv_m = work[o:o + n]
     o += n
-    sig = work[o:o + 2]
+    sig = work[o:o + 3]
     for i in range(n):
         inv_m[i] = 1.0 / veh[i, V_MASS]
     speed_mode = drv[D_MODE] == MODE_SPEED
@@ -329,6 +331,7 @@ def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hi
         out_f[r, j] = force[j]
     out_s[r, S_TRACTION] = sig[0]
     out_s[r, S_ADHESION] = adhesion_limit(sig[1], trac[T_MADH], trac[T_G])
+    out_s[r, S_DEMAND] = sig[2]
     if speed_mode:
         out_s[r, S_VREF] = _interp(prof_t, prof_y, t, hints, n + 1)
         out_s[r, S_ADEM] = a_dem

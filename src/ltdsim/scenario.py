@@ -346,6 +346,29 @@ class Initial(_Strict):
     couplers: Literal["neutral", "stretched", "bunched"] = "neutral"
 
 
+class Phase(_Strict):
+    """A named time window for analyses (the study's phases, MODEL.md §8)."""
+
+    name: str = Field(min_length=1)
+    start: float = Field(ge=0.0, description="s")
+    end: float = Field(gt=0.0, description="s")
+
+    @model_validator(mode="after")
+    def _order(self):
+        if self.end <= self.start:
+            raise ValueError(f"phase {self.name!r}: end ({self.end} s) must be after start "
+                             f"({self.start} s)")
+        return self
+
+
+#: the study's analysis windows (paper §5.1, MODEL.md §8)
+STUDY_PHASES = [
+    {"name": "acceleration", "start": 0.0, "end": 10.0},
+    {"name": "curving", "start": 75.0, "end": 85.0},
+    {"name": "deceleration", "start": 120.0, "end": 130.0},
+    {"name": "slope_climbing", "start": 185.0, "end": 195.0},
+]
+
 CaseOverrides = dict[str, Any]
 
 
@@ -361,6 +384,7 @@ class Scenario(_Strict):
     traction: Traction
     driver: Driver = Driver(mode="force")
     initial: Initial = Initial()
+    phases: list[Phase] = Field(default_factory=lambda: [Phase(**p) for p in STUDY_PHASES])
     cases: dict[str, CaseOverrides] = {}
     case: str | None = Field(None, description="name of the applied case, if any")
 

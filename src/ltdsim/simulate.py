@@ -29,6 +29,7 @@ UNITS = {
     "speed_error": "m/s",
     "adhesion_limit": "N",
     "demanded_acceleration": "m/s^2",
+    "traction_demand": "N",
 }
 
 DESCRIPTIONS = {
@@ -45,6 +46,8 @@ DESCRIPTIONS = {
     "speed_error": "reference minus measured speed of the lead powered vehicle",
     "adhesion_limit": "Curtius-Kniffler adhesion limit at the lead powered vehicle's speed",
     "demanded_acceleration": "speed controller output after the acceleration limits",
+    "traction_demand": "force demanded of the powered vehicles before the traction curve "
+                       "(adhesion, force, power) limits it",
 }
 
 ProgressFn = Callable[[float, float], None]
@@ -70,7 +73,8 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         ``position``, ``velocity``, ``acceleration``, ``relative_position``,
         ``relative_velocity`` (time x vehicle); ``coupler_deflection``,
         ``coupler_force`` (time x coupler); ``traction_force``, ``speed_reference``,
-        ``speed_error``, ``adhesion_limit``, ``demanded_acceleration`` (time). Units are
+        ``speed_error``, ``adhesion_limit``, ``demanded_acceleration``,
+        ``traction_demand`` (time). Units are
         in each variable's ``units`` attribute; the scenario (JSON) and run facts are in
         the dataset's attributes.
 
@@ -173,6 +177,7 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "speed_error": ("time", s[:, kernel.S_VREF] - vel[:, ref]),
         "adhesion_limit": ("time", s[:, kernel.S_ADHESION]),
         "demanded_acceleration": ("time", s[:, kernel.S_ADEM]),
+        "traction_demand": ("time", s[:, kernel.S_DEMAND]),
     }
     coords = {
         "time": ("time", time),

@@ -1,0 +1,180 @@
+"""Per-phase analyses of a result: the study's Table 5 norms, critical couplers, the
+traction-curve check (Fig. 7), and the phase figures (Fig. 5, 6, 7).
+
+A phase is a named time window (``[[phases]]`` in the scenario; by default the study's
+acceleration 0-10 s, curving 75-85 s, deceleration 120-130 s and slope climbing
+185-195 s). Norms are over the recorded samples of the window: the 2-norm
+``sqrt(sum x_k^2)`` depends on the sampling interval (the study samples every 1e-4 s;
+ltdsim records every ``output_interval``), so the RMS ``2-norm / sqrt(samples)`` is given
+beside it for comparisons across sampling rates.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from ltdsim.physics.traction import adhesion_limit
+from ltdsim.scenario import Scenario
+
+
+def phases_of(ds: xr.Dataset, scenario: Scenario | None = None) -> list[tuple[str, float, float]]:
+    """The phases (name, start s, end s) that overlap the record, clipped to it."""
+    if scenario is None:
+        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    t0, t1 = float(ds.time[0]), float(ds.time[-1])
+    out = []
+    for p in scenario.phases:
+        a, b = max(p.start, t0), min(p.end, t1)
+        if b > a:
+            out.append((p.name, a, b))
+    return out
+
+
+def _norms(x: np.ndarray, axis=0):
+    two = np.sqrt(np.sum(x * x, axis=axis))
+    return two, np.max(np.abs(x), axis=axis), two / np.sqrt(x.shape[axis])
+
+
+def phase_norms(ds: xr.Dataset, scenario: Scenario | None = None) -> xr.Dataset:
+    """2-norm, infinity-norm and RMS per phase (the study's Table 5).
+
+    Returns a dataset over ``phase`` (and ``coupler`` / ``vehicle``) with
+    ``coupler_force_{2norm,infnorm,rms}`` (N), ``acceleration_{...}`` (m/s^2, every
+    vehicle), ``traction_force_{...}`` (N) and ``speed_error_{...}`` (m/s).
+    """
+    phases = phases_of(ds, scenario)
+    if not phases:
+        raise ValueError("no phase overlaps the record")
+    names = [p[0] for p in phases]
+    parts = {}
+    for var, dim in (("coupler_force", "coupler"), ("acceleration", "vehicle"),
+                     ("traction_force", None), ("speed_error", None)):
+        rows = [_norms(ds[var].sel(time=slice(a, b)).values) for _, a, b in phases]
+        for k, kind in enumerate(("2norm", "infnorm", "rms")):
+            data = np.array([r[k] for r in rows])
+            dims = ("phase",) if dim is None else ("phase", dim)
+            parts[f"{var}_{kind}"] = (dims, data, {"units": ds[var].attrs.get("units", "")})
+    out = xr.Dataset(parts, coords={"phase": names, "coupler": ds.coupler.values,
+                                    "vehicle": ds.vehicle.values})
+    out["phase_start"] = ("phase", [p[1] for p in phases], {"units": "s"})
+    out["phase_end"] = ("phase", [p[2] for p in phases], {"units": "s"})
+    out["samples"] = ("phase", [int(ds.time.sel(time=slice(a, b)).size) for _, a, b in phases])
+    return out
+
+
+def critical_couplers(norms: xr.Dataset, by: str = "infnorm") -> pd.DataFrame:
+    """Couplers ranked per phase by the ``by`` norm of their force (rank 1 = largest)."""
+    f = norms[f"coupler_force_{by}"]
+    rows = []
+    for ph in norms.phase.values:
+        vals = f.sel(phase=ph).values
+        order = np.argsort(-vals)
+        for rank, j in enumerate(order, start=1):
+            rows.append({"phase": ph, "rank": rank, "coupler": int(norms.coupler.values[j]),
+                         f"force_{by}_N": float(vals[j])})
+    return pd.DataFrame(rows)
+
+
+def traction_check(ds: xr.Dataset, scenario: Scenario | None = None) -> pd.DataFrame:
+    """Per phase (and the whole run): the largest traction and demand relative to the
+    adhesion limit, and the samples where the demand exceeded adhesion (wheel-slip
+    risk; the drive then delivers only the limit)."""
+    windows = [("whole run", float(ds.time[0]), float(ds.time[-1]))] + phases_of(ds, scenario)
+    rows = []
+    for name, a, b in windows:
+        w = ds.sel(time=slice(a, b))
+        adh = w.adhesion_limit.values
+        demand = np.abs(w.traction_demand.values)
+        over = demand > adh
+        rows.append({
+            "phase": name,
+            "max_traction_over_adhesion": float(np.max(np.abs(w.traction_force.values) / adh)),
+            "max_demand_over_adhesion": float(np.max(demand / adh)),
+            "samples_demand_over_adhesion": int(over.sum()),
+            "first_time_over_s": float(w.time.values[over][0]) if over.any() else float("nan"),
+        })
+    return pd.DataFrame(rows)
+
+
+# ------------------------------------------------------------------------ figures
+def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None = None,
+                  prefix: str = "") -> list[Path]:
+    """Write the study's Fig. 5 (positions and velocities relative to the locomotive),
+    Fig. 6 (traction and coupler forces) and Fig. 7 (traction against speed under the
+    traction curve) per phase into ``folder``; returns the files."""
+    from ltdsim.plotting import _save, plt
+
+    if scenario is None:
+        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    phases = phases_of(ds, scenario)
+    folder = Path(folder)
+    files = []
+    n = len(phases)
+    if n == 0:
+        return files
+    cmap = plt.get_cmap("viridis")
+    nv = ds.sizes["vehicle"]
+
+    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 7), squeeze=False, constrained_layout=True)
+    for k, (name, a, b) in enumerate(phases):
+        w = ds.sel(time=slice(a, b))
+        for i in range(1, nv):
+            c = cmap((i - 1) / max(nv - 2, 1))
+            axes[0, k].plot(w.time, w.relative_position.isel(vehicle=i) * 1e3, lw=0.8, color=c,
+                            label=f"vehicle {i}")
+            axes[1, k].plot(w.time, w.relative_velocity.isel(vehicle=i), lw=0.8, color=c)
+        axes[0, k].set_title(name)
+        axes[1, k].set_xlabel("time [s]")
+    axes[0, 0].set_ylabel("position rel. to lead [mm]")
+    axes[1, 0].set_ylabel("velocity rel. to lead [m/s]")
+    if nv <= 12:
+        axes[0, -1].legend(fontsize=7)
+    fig.suptitle("Vehicles relative to the lead vehicle per phase (study Fig. 5)")
+    files.append(_save(fig, folder / f"{prefix}fig5_relative_motion.png"))
+
+    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 7), squeeze=False, constrained_layout=True)
+    nc = ds.sizes["coupler"]
+    for k, (name, a, b) in enumerate(phases):
+        w = ds.sel(time=slice(a, b))
+        axes[0, k].plot(w.time, w.traction_force / 1e3, lw=0.8)
+        axes[0, k].set_title(name)
+        for j in range(nc):
+            axes[1, k].plot(w.time, w.coupler_force.isel(coupler=j) / 1e3, lw=0.6,
+                            color=cmap(j / max(nc - 1, 1)), label=f"coupler {j}")
+        axes[1, k].set_xlabel("time [s]")
+    axes[0, 0].set_ylabel("traction force [kN]")
+    axes[1, 0].set_ylabel("coupler force [kN] (+ tension)")
+    if nc <= 12:
+        axes[1, -1].legend(fontsize=7, ncol=2)
+    fig.suptitle("Traction and coupler forces per phase (study Fig. 6)")
+    files.append(_save(fig, folder / f"{prefix}fig6_forces.png"))
+
+    t = scenario.traction
+    g = scenario.track.gravity
+    vmax = max(float(np.abs(ds.velocity).max()) * 1.1, 1.0)
+    v = np.linspace(0.0, vmax, 300)
+    adh = adhesion_limit(v, t.adhesion_mass, g)
+    power = np.divide(t.max_power, v, out=np.full_like(v, np.inf), where=v > 0)
+    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4.2), squeeze=False, constrained_layout=True)
+    ref = int(np.argmax([vh.powered for vh in scenario.vehicles]))
+    for k, (name, a, b) in enumerate(phases):
+        ax = axes[0, k]
+        ax.plot(v, adh / 1e3, "k:", lw=1, label="adhesion")
+        ax.plot(v, np.full_like(v, t.max_force) / 1e3, "k--", lw=1, label="force limit")
+        ax.plot(v, np.minimum(power, 2 * t.max_force) / 1e3, "k-.", lw=1, label="power limit")
+        w = ds.sel(time=slice(a, b))
+        ax.plot(w.velocity.isel(vehicle=ref), np.abs(w.traction_force) / 1e3, ".", ms=1.5,
+                label="|traction|")
+        ax.set_ylim(0, 1.2 * max(t.max_force, float(np.abs(w.traction_force).max())) / 1e3)
+        ax.set_title(name)
+        ax.set_xlabel("speed [m/s]")
+    axes[0, 0].set_ylabel("force [kN]")
+    axes[0, -1].legend(fontsize=7)
+    fig.suptitle("Traction against the traction curve per phase (study Fig. 7)")
+    files.append(_save(fig, folder / f"{prefix}fig7_traction_curve.png"))
+    return files

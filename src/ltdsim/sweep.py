@@ -1,0 +1,379 @@
+"""Parameter sweeps: many scenario variants on local processes or a Dask cluster.
+
+A sweep is a base scenario and a list of cases, each a set of dotted-key overrides:
+
+* a scenario file: its named ``[cases.*]`` (the study's 16 L/H cases);
+* a sweep file (TOML) naming a scenario and one of ``[grid]`` (full factorial),
+  ``[list]`` (zipped lists) or ``[monte_carlo]`` (seeded samples), plus ``[overrides]``
+  applied to every case (see docs/sweep.md).
+
+Cases run through one code path on a ``concurrent.futures`` executor: a local process
+pool by default, or ``distributed.Client(address).get_executor()`` for a Dask cluster.
+Each finished case is written atomically (``cases/<id>.json``: status, error, summary
+and phase norms; optionally ``cases/<id>.nc``) by the process that runs the sweep, so
+workers need no shared disk. A case whose file exists with the same content
+fingerprint is not run again: an interrupted sweep resumes with the same command.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import hashlib
+import itertools
+import json
+import multiprocessing
+import os
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ltdsim.errors import LtdsimError, ScenarioError
+from ltdsim.io import atomic_path
+from ltdsim.scenario import Scenario, load_scenario
+
+SWEEP_KEYS = {"name", "scenario", "case", "overrides", "grid", "list", "monte_carlo"}
+DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
+                 "lognormal": ("mean", "sigma")}
+
+
+@dataclass
+class Case:
+    """One case of a sweep: an id and the dotted-key overrides that make it."""
+
+    id: str
+    overrides: dict
+
+
+@dataclass
+class Sweep:
+    """A base scenario, its cases, and where the sweep file came from."""
+
+    base: Scenario
+    cases: list[Case]
+    source: str
+
+    def scenario(self, case: Case) -> Scenario:
+        return self.base.with_overrides(case.overrides, source=f"{self.source} case {case.id}")
+
+
+def fingerprint(scenario: Scenario) -> str:
+    """Content hash of a scenario (what a finished case was computed from)."""
+    text = json.dumps(scenario.to_dict(), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+# --------------------------------------------------------------------- sweep files
+def load_sweep(path: str | Path) -> Sweep:
+    """Read a scenario file (its named cases) or a sweep file; validate every case.
+
+    Raises ScenarioError naming the file, key and problem.
+    """
+    path = Path(path)
+    source = str(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ScenarioError(source, [("", "file not found")]) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(source, [("", f"not valid TOML: {exc}")]) from None
+    if "scenario" not in data:
+        base = load_scenario(path)
+        if not base.cases:
+            raise ScenarioError(source, [("cases", "the scenario has no [cases.*] to sweep; "
+                                                   "give a sweep file instead")])
+        cases = [Case(name, dict(ov)) for name, ov in base.cases.items()]
+        return _validated(Sweep(base, cases, source))
+
+    unknown = sorted(set(data) - SWEEP_KEYS)
+    if unknown:
+        raise ScenarioError(source, [(k, f"unknown key; allowed: {', '.join(sorted(SWEEP_KEYS))}")
+                                     for k in unknown])
+    base = load_scenario(path.parent / data["scenario"], case=data.get("case"))
+    common = dict(data.get("overrides", {}))
+    kinds = [k for k in ("grid", "list", "monte_carlo") if k in data]
+    if len(kinds) != 1:
+        raise ScenarioError(source, [("", "give exactly one of [grid], [list], [monte_carlo]"
+                                          f" (found {', '.join(kinds) or 'none'})")])
+    kind = kinds[0]
+    if kind == "grid":
+        keys = list(data["grid"])
+        values = [_values(source, f"grid.{k}", data["grid"][k]) for k in keys]
+        combos = list(itertools.product(*values))
+        cases = [Case(f"g{i:04d}", {**common, **dict(zip(keys, c))}) for i, c in enumerate(combos)]
+    elif kind == "list":
+        keys = list(data["list"])
+        values = [_values(source, f"list.{k}", data["list"][k]) for k in keys]
+        lengths = {len(v) for v in values}
+        if len(lengths) != 1:
+            raise ScenarioError(source, [("list", f"all lists must have one length, got "
+                                                  f"{sorted(lengths)}")])
+        cases = [Case(f"l{i:04d}", {**common, **dict(zip(keys, c))})
+                 for i, c in enumerate(zip(*values))]
+    else:
+        cases = [Case(f"mc{i:04d}", {**common, **ov})
+                 for i, ov in enumerate(_monte_carlo(source, data["monte_carlo"]))]
+    return _validated(Sweep(base, cases, source))
+
+
+def _values(source, key, v):
+    if not isinstance(v, list) or not v:
+        raise ScenarioError(source, [(key, "expected a non-empty list of values")])
+    return v
+
+
+def _monte_carlo(source, mc: dict) -> list[dict]:
+    allowed = {"samples", "seed", "parameters"}
+    bad = sorted(set(mc) - allowed)
+    if bad:
+        raise ScenarioError(source, [(f"monte_carlo.{k}", f"unknown key; allowed: "
+                                                          f"{', '.join(sorted(allowed))}")
+                                     for k in bad])
+    n = mc.get("samples")
+    if not isinstance(n, int) or not 1 <= n <= 100_000:
+        raise ScenarioError(source, [("monte_carlo.samples", "an integer from 1 to 100000")])
+    if "seed" not in mc:
+        raise ScenarioError(source, [("monte_carlo.seed", "required: samples must be "
+                                                          "reproducible")])
+    rng = np.random.default_rng(mc["seed"])
+    columns = {}
+    for key, spec in mc.get("parameters", {}).items():
+        dist = spec.get("dist") if isinstance(spec, dict) else None
+        if dist not in DISTRIBUTIONS:
+            raise ScenarioError(source, [(f"monte_carlo.parameters.{key}.dist",
+                                          f"one of {', '.join(DISTRIBUTIONS)}")])
+        args = DISTRIBUTIONS[dist]
+        missing = [a for a in args if a not in spec]
+        if missing:
+            raise ScenarioError(source, [(f"monte_carlo.parameters.{key}",
+                                          f"{dist} needs {', '.join(args)}")])
+        a, b = (float(spec[x]) for x in args)
+        columns[key] = getattr(rng, dist)(a, b, size=n)
+    if not columns:
+        raise ScenarioError(source, [("monte_carlo.parameters", "no parameters to sample")])
+    return [{k: float(col[i]) for k, col in columns.items()} for i in range(n)]
+
+
+def _validated(sweep: Sweep) -> Sweep:
+    problems = []
+    for case in sweep.cases:
+        try:
+            sweep.scenario(case)
+        except ScenarioError as exc:
+            problems += [(f"case {case.id}: {k}", m) for k, m in exc.problems]
+    if problems:
+        raise ScenarioError(sweep.source, problems)
+    return sweep
+
+
+# ---------------------------------------------------------------------- one case
+def case_summary(ds) -> dict:
+    """Per-case numbers: RMS speed error (m/s), max tension and compression per coupler
+    (N), max |acceleration| per vehicle (m/s^2), peak traction (N), wheel-slip samples."""
+    from ltdsim.summary import run_summary
+
+    f = ds.coupler_force.values
+    s = run_summary(ds)
+    return {
+        "rms_speed_error_m_s": s["rms_speed_error_m_s"],
+        "max_speed_error_m_s": s["max_speed_error_m_s"],
+        "max_tension_N": np.maximum(f.max(axis=0), 0.0).tolist(),
+        "max_compression_N": np.maximum(-f.min(axis=0), 0.0).tolist(),
+        "max_abs_acceleration_m_s2": np.abs(ds.acceleration.values).max(axis=0).tolist(),
+        "max_traction_N": s["max_traction_N"],
+        "samples_demand_over_adhesion": int(
+            (np.abs(ds.traction_demand.values) > ds.adhesion_limit.values).sum()),
+        "wall_time_s": s["wall_time_s"],
+    }
+
+
+def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False) -> dict:
+    """Simulate one case (in a worker) and return its record; failures are recorded,
+    not raised."""
+    from ltdsim.phases import phase_norms
+    from ltdsim.simulate import simulate
+
+    record = {"id": case_id, "status": "ok", "error": None}
+    try:
+        sc = Scenario.from_dict(scenario_dict, f"case {case_id}")
+        ds = simulate(sc)
+        record["summary"] = case_summary(ds)
+        try:
+            norms = phase_norms(ds, sc)
+            record["phase_norms"] = {k: v.values.tolist() for k, v in norms.data_vars.items()}
+            record["phases"] = [str(p) for p in norms.phase.values]
+        except ValueError:
+            record["phase_norms"], record["phases"] = {}, []
+        if keep_result:
+            record["result"] = ds
+    except LtdsimError as exc:
+        record.update(status="failed", error=str(exc))
+    except Exception as exc:  # noqa: BLE001 - a case must never stop the sweep
+        record.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+    return record
+
+
+# ------------------------------------------------------------------------ sweeps
+def case_path(out: Path, case_id: str) -> Path:
+    return out / "cases" / f"{case_id}.json"
+
+
+def finished(out: Path, sweep: Sweep, retry_failed: bool = False) -> set[str]:
+    """Ids of the cases already on disk with the same content fingerprint."""
+    done = set()
+    for case in sweep.cases:
+        p = case_path(out, case.id)
+        if not p.is_file():
+            continue
+        try:
+            rec = json.loads(p.read_text())
+        except (OSError, json.JSONDecodeError):
+            continue  # a damaged file is run again
+        if rec.get("fingerprint") != fingerprint(sweep.scenario(case)):
+            continue
+        if rec.get("status") == "ok" or (rec.get("status") == "failed" and not retry_failed):
+            done.add(case.id)
+    return done
+
+
+def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
+              workers: int | None = None, keep_results: bool = False,
+              retry_failed: bool = False,
+              progress: Callable[[int, int, str], None] | None = None) -> pd.DataFrame:
+    """Run the unfinished cases of ``sweep`` into folder ``out``; return the summary.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of a Dask scheduler (``tcp://host:port``); local processes if None.
+    workers : int, optional
+        Local processes (default: all cores).
+    keep_results : bool
+        Also write every case's full time series as ``cases/<id>.nc``.
+    retry_failed : bool
+        Run again cases recorded as failed.
+    progress : callable, optional
+        ``progress(done, total, case_id)`` after each finished case.
+    """
+    out = Path(out)
+    (out / "cases").mkdir(parents=True, exist_ok=True)
+    skip = finished(out, sweep, retry_failed)
+    todo = [c for c in sweep.cases if c.id not in skip]
+    total = len(sweep.cases)
+    done = len(skip)
+    if progress is not None:
+        progress(done, total, "")
+    if todo:
+        executor, close = _executor(scheduler, workers)
+        try:
+            futures = {}
+            for case in todo:
+                sc = sweep.scenario(case)
+                fut = executor.submit(run_case, sc.to_dict(), case.id, keep_results)
+                futures[fut] = (case, fingerprint(sc))
+            for fut in cf.as_completed(futures):
+                case, fp = futures[fut]
+                try:
+                    record = fut.result()
+                except Exception as exc:  # noqa: BLE001 - lost worker, cancelled, ...
+                    record = {"id": case.id, "status": "lost",
+                              "error": f"{type(exc).__name__}: {exc}"}
+                _write_case(out, case, fp, record)
+                done += 1
+                if progress is not None:
+                    progress(done, total, case.id)
+        finally:
+            close()
+    return summary_table(out, sweep)
+
+
+def _executor(scheduler, workers):
+    if scheduler:
+        from distributed import Client
+
+        client = Client(scheduler)
+        return client.get_executor(), client.close
+    ctx = multiprocessing.get_context("spawn")
+    ex = cf.ProcessPoolExecutor(max_workers=workers or os.cpu_count(), mp_context=ctx)
+    return ex, lambda: ex.shutdown(wait=True, cancel_futures=True)
+
+
+def _write_case(out: Path, case: Case, fp: str, record: dict) -> None:
+    result = record.pop("result", None)
+    if result is not None:
+        from ltdsim.io import save_result
+
+        save_result(result, out / "cases" / f"{case.id}.nc")
+    record.update(fingerprint=fp, overrides=case.overrides)
+    with atomic_path(case_path(out, case.id)) as tmp:
+        tmp.write_text(json.dumps(record, indent=1, default=float))
+
+
+def summary_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
+    """One row per case on disk: status, RMS speed error, the largest tension and
+    compression over all couplers (and per coupler), the largest |acceleration|."""
+    out = Path(out)
+    rows = []
+    for case in sweep.cases:
+        p = case_path(out, case.id)
+        if not p.is_file():
+            rows.append({"case": case.id, "status": "not run"})
+            continue
+        rec = json.loads(p.read_text())
+        row = {"case": case.id, "status": rec["status"], "error": rec.get("error")}
+        s = rec.get("summary")
+        if s:
+            row.update({
+                "rms_speed_error_m_s": s["rms_speed_error_m_s"],
+                "max_tension_N": max(s["max_tension_N"], default=0.0),
+                "max_compression_N": max(s["max_compression_N"], default=0.0),
+                "max_abs_acceleration_m_s2": max(s["max_abs_acceleration_m_s2"]),
+                "samples_demand_over_adhesion": s["samples_demand_over_adhesion"],
+            })
+            for j, (t, c) in enumerate(zip(s["max_tension_N"], s["max_compression_N"])):
+                row[f"max_tension_c{j}_N"] = t
+                row[f"max_compression_c{j}_N"] = c
+        rows.append(row)
+    return pd.DataFrame(rows).set_index("case")
+
+
+CRITERIA = {
+    "rms_speed_error": ("rms_speed_error_m_s", "min"),
+    "max_tension": ("max_tension_N", "min"),
+    "max_compression": ("max_compression_N", "min"),
+    "max_acceleration": ("max_abs_acceleration_m_s2", "min"),
+}
+
+
+def best_case(summary: pd.DataFrame, criterion: str = "rms_speed_error") -> str | None:
+    """Id of the best finished case by ``criterion`` (see :data:`CRITERIA`)."""
+    column, _ = CRITERIA[criterion]
+    ok = summary[summary.status == "ok"]
+    if ok.empty or column not in ok:
+        return None
+    return str(ok[column].astype(float).idxmin())
+
+
+def phase_norm_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
+    """Long table of every finished case's phase norms: case, phase, quantity, index
+    (coupler or vehicle, -1 for scalars), value."""
+    rows = []
+    for case in sweep.cases:
+        p = case_path(Path(out), case.id)
+        if not p.is_file():
+            continue
+        rec = json.loads(p.read_text())
+        for qty, values in rec.get("phase_norms", {}).items():
+            if qty in ("phase_start", "phase_end", "samples"):
+                continue
+            for ph, v in zip(rec["phases"], values):
+                if isinstance(v, list):
+                    rows += [{"case": case.id, "phase": ph, "quantity": qty, "index": j,
+                              "value": x} for j, x in enumerate(v)]
+                else:
+                    rows.append({"case": case.id, "phase": ph, "quantity": qty, "index": -1,
+                                 "value": v})
+    return pd.DataFrame(rows)

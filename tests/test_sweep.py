@@ -1,0 +1,157 @@
+"""Sweeps: resume without loss, Dask equals local, phase norms, failures recorded."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+import ltdsim
+from ltdsim import ScenarioError
+from ltdsim import sweep as sw
+from ltdsim.phases import critical_couplers, phase_norms, traction_check
+
+from conftest import PAPER, ROOT
+
+
+def write_sweep(tmp_path, body: str):
+    p = tmp_path / "sweep.toml"
+    p.write_text(f'scenario = "{ROOT / "scenarios" / "short-train.toml"}"\n' + body)
+    return p
+
+
+GRID = '''
+[overrides]
+"solver.t_end" = 2.0
+"solver.output_interval" = 0.01
+[grid]
+"couplers.default.k3" = [3.0e6, 6.0e6]
+"couplers.default.damping" = [1000.0, 3000.0]
+'''
+
+
+def test_grid_list_and_monte_carlo_files_make_the_expected_cases(tmp_path):
+    s = sw.load_sweep(write_sweep(tmp_path, GRID))
+    assert len(s.cases) == 4
+    assert {(c.overrides["couplers.default.k3"], c.overrides["couplers.default.damping"])
+            for c in s.cases} == {(3e6, 1e3), (3e6, 3e3), (6e6, 1e3), (6e6, 3e3)}
+    mc = '''
+[monte_carlo]
+samples = 50
+seed = 7
+[monte_carlo.parameters]
+"vehicles.2.mass" = { dist = "normal", mean = 90000.0, std = 3000.0 }
+'''
+    a = sw.load_sweep(write_sweep(tmp_path, mc))
+    b = sw.load_sweep(write_sweep(tmp_path, mc))
+    masses = np.array([c.overrides["vehicles.2.mass"] for c in a.cases])
+    assert masses.tolist() == [c.overrides["vehicles.2.mass"] for c in b.cases]  # seeded
+    assert abs(masses.mean() - 90000.0) < 4 * 3000.0 / np.sqrt(50)
+
+
+def test_a_bad_case_fails_at_load_naming_the_case_and_key(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        sw.load_sweep(write_sweep(tmp_path, '[list]\n"couplers.default.k3" = [3e6, -1.0]\n'))
+    assert "case l0001" in str(info.value) and "couplers.default.k3" in str(info.value)
+
+
+def test_an_interrupted_sweep_resumes_with_only_the_rest_and_equal_results(tmp_path):
+    spec = sw.load_sweep(write_sweep(tmp_path, GRID))
+    full = sw.run_sweep(spec, tmp_path / "full", workers=2)
+
+    seen = []
+
+    def stop_after_two(done, total, case_id):
+        if case_id:
+            seen.append(case_id)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        sw.run_sweep(spec, tmp_path / "resumed", workers=1, progress=stop_after_two)
+    first = set(seen)
+    assert len(first) == 2
+    rerun = []
+    again = sw.run_sweep(spec, tmp_path / "resumed", workers=2,
+                         progress=lambda d, n, c: rerun.append(c) if c else None)
+    assert set(rerun) == {c.id for c in spec.cases} - first  # only the rest ran
+    pd.testing.assert_frame_equal(again.drop(columns=["error"]), full.drop(columns=["error"]))
+
+
+def test_dask_local_cluster_gives_the_same_results_as_local_processes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    spec = sw.load_sweep(write_sweep(tmp_path, GRID))
+    local = sw.run_sweep(spec, tmp_path / "local", workers=2)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1",
+                                  dashboard_address=None, processes=True) as cluster:
+        remote = sw.run_sweep(spec, tmp_path / "dask", scheduler=cluster.scheduler_address)
+    pd.testing.assert_frame_equal(local.drop(columns=["error"]), remote.drop(columns=["error"]))
+
+
+def test_a_failing_case_is_recorded_and_the_sweep_goes_on(tmp_path):
+    body = '''
+[overrides]
+"solver.t_end" = 1.0
+"solver.method" = "euler"
+"solver.dt" = 1e-2
+"solver.output_interval" = 1e-2
+"driver.pid.ts" = 1e-2
+[list]
+"couplers.default.k1" = [8e6, 5e11]
+"couplers.default.k3" = [3e6, 5e11]
+'''
+    spec = sw.load_sweep(write_sweep(tmp_path, body))
+    summary = sw.run_sweep(spec, tmp_path / "out", workers=1)
+    assert summary.loc["l0000", "status"] == "ok"
+    assert summary.loc["l0001", "status"] == "failed"
+    rec = json.loads((tmp_path / "out" / "cases" / "l0001.json").read_text())
+    assert "non-finite" in rec["error"]
+
+
+def test_phase_norms_are_numpy_norms_of_the_recorded_signals():
+    sc = ltdsim.load_scenario(ROOT / "scenarios" / "short-train.toml").with_overrides(
+        {"solver.t_end": 30.0, "phases": [{"name": "start", "start": 0.0, "end": 10.0},
+                                          {"name": "cruise", "start": 22.0, "end": 30.0}]})
+    ds = ltdsim.simulate(sc)
+    norms = phase_norms(ds, sc)
+    for name, a, b in (("start", 0.0, 10.0), ("cruise", 22.0, 30.0)):
+        keep = (ds.time.values >= a) & (ds.time.values <= b)
+        f = ds.coupler_force.values[keep]
+        assert_allclose(norms.coupler_force_2norm.sel(phase=name), np.linalg.norm(f, axis=0))
+        assert_allclose(norms.coupler_force_infnorm.sel(phase=name),
+                        np.linalg.norm(f, ord=np.inf, axis=0))
+        e = ds.speed_error.values[keep]
+        assert_allclose(norms.speed_error_2norm.sel(phase=name), np.linalg.norm(e))
+        assert_allclose(norms.speed_error_rms.sel(phase=name), np.sqrt(np.mean(e**2)))
+        a_ = ds.acceleration.values[keep]
+        assert_allclose(norms.acceleration_infnorm.sel(phase=name), np.abs(a_).max(axis=0))
+
+
+@pytest.fixture(scope="module")
+def lhhl():
+    sc = ltdsim.load_scenario(PAPER, case="LHHL")
+    return sc, ltdsim.simulate(sc)
+
+
+def test_in_acceleration_the_couplers_nearest_the_locomotive_carry_the_most(lhhl):
+    sc, ds = lhhl
+    norms = phase_norms(ds, sc)
+    rms = norms.coupler_force_rms.sel(phase="acceleration").values
+    # steady pull on a rigid train: coupler j carries the mass behind it; so does the RMS
+    assert np.all(np.diff(rms) < 0)
+    assert critical_couplers(norms, by="rms").query("phase == 'acceleration' and rank == 1"
+                                                     ).coupler.item() == 0
+    m = np.array([v.mass for v in sc.vehicles])
+    behind = np.array([m[j + 1:].sum() for j in range(len(m) - 1)]) / m.sum()
+    w = ds.sel(time=slice(2.0, 10.0))
+    mean_pull = w.coupler_force.mean("time").values
+    assert_allclose(mean_pull / mean_pull[0], behind / behind[0], atol=0.05)
+
+
+def test_traction_never_exceeds_adhesion_and_the_check_counts_slip_risk(lhhl):
+    sc, ds = lhhl
+    check = traction_check(ds, sc)
+    assert (check.max_traction_over_adhesion <= 1.0 + 1e-12).all()
+    over = (np.abs(ds.traction_demand.values) > ds.adhesion_limit.values).sum()
+    assert check.loc[check.phase == "whole run", "samples_demand_over_adhesion"].item() == over
