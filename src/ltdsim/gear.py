@@ -99,14 +99,15 @@ class _Run:
     force: np.ndarray
 
 
-def _run_rig(params, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method) -> _Run:
-    model, cpl, ctab = _lowered_gear(params, dt)
+def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
+                  f0=0.0) -> _Run:
+    """Run the rig for lowered coupler arrays (``_lowered_gear``); ``f0`` is the initial
+    internal force of a hysteretic gear, N."""
     tab = get_tableau(method)
     n_steps = int(round(t_end / dt))
     ny = 2 + N_GEAR_STATES
     y = np.zeros(ny)
-    if params.model in ("friction_wedge", "table"):
-        y[2] = released_force(params)  # a released gear starts on its loading curve
+    y[2] = f0
     outs = [np.empty(n_steps + 1) for _ in range(4)]
     work = np.zeros(tab.stages * ny + 2 * ny)
     hints = np.zeros(3, dtype=np.int64)
@@ -114,6 +115,14 @@ def _run_rig(params, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method) -> _Run
          np.ascontiguousarray(a_tab, dtype=float), np.ascontiguousarray(b_tab, dtype=float),
          dt, n_steps, tab.A, tab.b, tab.c, y, *outs, work, hints)
     return _Run(*outs)
+
+
+def _run_rig(params, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method) -> _Run:
+    model, cpl, ctab = _lowered_gear(params, dt)
+    # a released hysteretic gear starts on its loading curve
+    f0 = released_force(params) if params.model in ("friction_wedge", "table") else 0.0
+    return integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
+                         f0)
 
 
 def _dataset(run: _Run, **attrs) -> xr.Dataset:
@@ -164,8 +173,12 @@ def drive_force(params: CouplerParams, t, force, *, mass: float, dt: float = 1e-
     return _dataset(run, rig="mass on a gear, force driven", model=params.model, mass_kg=mass)
 
 
-def sine_chain(segments=((1e6, np.pi / 2, 8.0), (1e6, np.pi, 4.0), (1e6, 2 * np.pi, 2.0),
-                         (1e7, 10 * np.pi, 0.4), (1e7, 20 * np.pi, 0.2)), dt: float = 1e-4):
+#: the study's model-reduction excitation (paper §3): (amplitude N, rad/s, duration s)
+STUDY_SINES = ((1e6, np.pi / 2, 8.0), (1e6, np.pi, 4.0), (1e6, 2 * np.pi, 2.0),
+               (1e7, 10 * np.pi, 0.4), (1e7, 20 * np.pi, 0.2))
+
+
+def sine_chain(segments=STUDY_SINES, dt: float = 1e-4):
     """The study's model-reduction excitation (paper §3): sines of amplitude A (N) and
     angular frequency w (rad/s) for T seconds each, one after the other, each starting
     at phase 0 (14.6 s in all with the defaults). Returns samples ``(t, F)``."""

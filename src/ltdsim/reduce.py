@@ -25,9 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from ltdsim.gear import MODE_FORCE, _lowered_gear, _rig, sine_chain
-from ltdsim.integrators import get_tableau
-from ltdsim.lowering import N_GEAR_STATES, P_DAMP, P_K1, P_K2, P_K3, P_VC
+from ltdsim.gear import MODE_FORCE, STUDY_SINES, _lowered_gear, integrate_rig, sine_chain
+from ltdsim.lowering import P_DAMP, P_K1, P_K2, P_K3, P_VC
 from ltdsim.physics.couplers import coupler_simplified
 from ltdsim.scenario import CouplerParams
 
@@ -42,9 +41,6 @@ DEFAULT_BOUNDS = {
 }
 #: default rig mass (force rig): the nine wagons behind the study's first coupler, kg
 DEFAULT_MASS = 8.1e5
-#: the study's excitation: (force amplitude N, angular frequency rad/s, duration s)
-STUDY_SINES = ((1e6, np.pi / 2, 8.0), (1e6, np.pi, 4.0), (1e6, 2 * np.pi, 2.0),
-               (1e7, 10 * np.pi, 0.4), (1e7, 20 * np.pi, 0.2))
 #: deflection rig: amplitude as a share of the gear travel for each force level
 TRAVEL_SHARE = {1e6: 0.5, 1e7: 0.85}
 
@@ -104,15 +100,9 @@ class RigObjective:
         """Gear force history (N) of the simplified coupler with ``values`` (SI)."""
         cpl = self.cpl.copy()
         cpl[0, [P_DAMP, P_K1, P_K2, P_K3, P_VC]] = values
-        tab = get_tableau(self.method)
-        n_steps = self.t.size - 1
-        ny = 2 + N_GEAR_STATES
-        y = np.zeros(ny)
-        outs = [np.empty(n_steps + 1) for _ in range(4)]
-        _rig(MODE_FORCE, self.model, cpl, self.ctab, self.mass, self.t, self.force_in,
-             self.force_in, self.dt, n_steps, tab.A, tab.b, tab.c, y, *outs,
-             np.zeros(tab.stages * ny + 2 * ny), np.zeros(3, dtype=np.int64))
-        return outs[3]
+        return integrate_rig(self.model, cpl, self.ctab, MODE_FORCE, self.t, self.force_in,
+                             self.force_in, self.mass, self.t[-1] - self.t[0], self.dt,
+                             self.method).force
 
     def __call__(self, log_values) -> float:
         f = self.force(10.0 ** np.asarray(log_values))

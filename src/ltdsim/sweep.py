@@ -25,7 +25,7 @@ import multiprocessing
 import os
 import tomllib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -55,9 +55,14 @@ class Sweep:
     base: Scenario
     cases: list[Case]
     source: str
+    _built: dict = field(default_factory=dict, repr=False)
 
     def scenario(self, case: Case) -> Scenario:
-        return self.base.with_overrides(case.overrides, source=f"{self.source} case {case.id}")
+        """The validated scenario of ``case`` (built once)."""
+        if case.id not in self._built:
+            self._built[case.id] = self.base.with_overrides(
+                case.overrides, source=f"{self.source} case {case.id}")
+        return self._built[case.id]
 
 
 def fingerprint(scenario: Scenario) -> str:
