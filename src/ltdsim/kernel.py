@@ -16,7 +16,8 @@ import numpy as np
 from numba import njit
 
 from ltdsim.lowering import (
-    C_LINEAR, C_SIMPLIFIED, C_WEDGE, D_EVERY, D_FILT, D_INT, D_KD, D_KI, D_KP, D_MODE, D_N, D_TS, MODE_SPEED,
+    C_LINEAR, C_SIMPLIFIED, C_WEDGE, D_EVERY, D_FILT, D_INT, D_KD, D_KI, D_KP, D_MODE, D_N,
+    D_TS, MODE_SPEED,
     P_BACK, P_C1, P_C2, P_C3, P_D0, P_DAMP, P_F0, P_G, P_GAP, P_H1, P_H2, P_H3, P_K1, P_K2, P_K3,
     P_KLOCK, P_KM, P_KR, P_KSOLID, P_NLOAD, P_NUNL, P_PRELOAD, P_RATE, P_S, P_SLACK, P_SNV,
     P_SNX, P_STAB, P_STIFF, P_TA, P_TB, P_TG, P_TLOAD, P_TRAVEL, P_TUNL, P_VC, P_XM0, P_XR0,
