@@ -398,6 +398,43 @@ def phases(
     console.print(f"tables and {len(files)} figures written to {output}")
 
 
+@app.command()
+def modal(
+    file: Annotated[Path, typer.Argument(help="scenario file (TOML)")],
+    case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
+    stiffness: Annotated[str, typer.Option(help="low (k1), high (k2 + k3), or N/m")] = "low",
+    series: Annotated[int, typer.Option(help="gears in series per coupling")] = 2,
+    output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
+        "results/modal"),
+) -> None:
+    """Natural frequencies and mode shapes of the train (study Fig. 8)."""
+    from ltdsim.io import atomic_path
+    from ltdsim.modal import save_mode_shapes, train_modes
+    from ltdsim.scenario import load_scenario
+
+    try:
+        sc = load_scenario(file, case=case)
+        which = stiffness if stiffness in ("low", "high") else float(stiffness)
+        table = train_modes(sc, which, series)
+    except (ScenarioError, ValueError) as exc:
+        _fail(exc if isinstance(exc, ScenarioError) else
+              ScenarioError("--stiffness", [("stiffness", str(exc))]))
+        return
+    out = Table(title=f"Modes of {file}" + (f" [{case}]" if case else "")
+                + f", {stiffness} stiffness, {series} gear(s) per coupling")
+    out.add_column("mode", justify="right")
+    out.add_column("frequency [Hz]", justify="right")
+    for i, f in enumerate(table.frequency_hz):
+        out.add_row(str(i), f"{f:.3f}")
+    console.print(out)
+    output.mkdir(parents=True, exist_ok=True)
+    with atomic_path(output / f"modes_{stiffness}.csv") as tmp:
+        table.to_csv(tmp)
+    save_mode_shapes(table, output / f"mode_shapes_{stiffness}.png",
+                     title=f"{stiffness} stiffness, {series} gear(s) per coupling")
+    console.print(f"table and mode-shape figure written to {output}")
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 

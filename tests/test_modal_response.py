@@ -1,0 +1,104 @@
+"""Modal analysis and step/ramp metrics against closed forms and the study's numbers."""
+
+import control
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+import ltdsim
+from ltdsim.data import study_tables
+from ltdsim.modal import chain_modes, train_modes
+from ltdsim.response import ramp_error, step_metrics, tf_from_z_inverse
+
+from conftest import PAPER
+
+TABLES = study_tables()
+
+
+@settings(max_examples=30, deadline=None)
+@given(n=st.integers(2, 60), m=st.floats(1e3, 2e5), k=st.floats(1e5, 1e8))
+def test_uniform_chain_frequencies_match_the_closed_form(n, m, k):
+    f, phi = chain_modes(np.full(n, m), np.full(n - 1, k))
+    j = np.arange(n)
+    exact = np.sqrt(k / m) / np.pi * np.sin(j * np.pi / (2 * n))
+    assert_allclose(f[1:], exact[1:], rtol=1e-9)
+    assert f[0] < 1e-6 * f[-1]  # exactly one rigid-body mode
+    assert np.sum(f < 1e-6 * f[-1]) == 1
+    assert_allclose(phi.T @ np.diag(np.full(n, m)) @ phi, np.eye(n), atol=1e-9)  # M-orthonormal
+
+
+def test_the_study_train_low_stiffness_band_matches_figure_8():
+    sc = ltdsim.load_scenario(PAPER, case="LLLL")
+    f = train_modes(sc, "low", series=2).frequency_hz.values
+    low = TABLES["figure8_modal_bands"]["low_stiffness_k1_Hz"]
+    assert_allclose([f[1], f[-1]], low, rtol=0.05)
+
+
+@pytest.mark.parametrize("zeta,wn", [(0.1, 2.0), (0.3, 5.0), (0.6, 1.0)])
+def test_step_metrics_of_a_second_order_system_match_the_closed_form(zeta, wn):
+    sys = control.tf([wn**2], [1, 2 * zeta * wn, wn**2])
+    m = step_metrics(sys)
+    assert_allclose(m["Overshoot"], 100 * np.exp(-zeta * np.pi / np.sqrt(1 - zeta**2)), rtol=1e-2)
+    assert_allclose(m["PeakTime"], np.pi / (wn * np.sqrt(1 - zeta**2)), rtol=1e-2)
+
+
+def test_ramp_error_of_a_first_order_lag_is_its_time_constant():
+    for tau in (0.05, 0.5, 2.0):
+        assert_allclose(ramp_error(control.tf([1], [tau, 1])), tau, rtol=1e-3)
+        sysd = control.c2d(control.tf([1], [tau, 1]), tau / 50, method="zoh")
+        assert_allclose(ramp_error(sysd), tau, rtol=2e-2)
+    assert ramp_error(control.tf([0.9], [1, 1])) == float("inf")  # DC gain 0.9: no steady state
+
+
+@pytest.mark.parametrize("case", ["LLLL", "LLHL", "HLLH", "HLHL", "HHLH"])
+def test_appendix_ii_models_reproduce_table_4_overshoot_and_peak(case):
+    tf = TABLES["appendix2_transfer_functions_Ts_1e-4"][case]
+    m = step_metrics(tf_from_z_inverse(tf["numerator_z^-1"], tf["denominator_z^-1"], 1e-4))
+    t4 = TABLES["table4_step_response"][case]
+    assert abs(m["Overshoot"] - t4["overshoot_percent"]) < 2.0  # percentage points
+    assert abs(m["Peak"] - t4["peak"]) < 0.015
+
+
+def test_known_sines_are_read_back_at_the_right_frequency_and_amplitude():
+    from ltdsim.spectra import amplitude_spectrum, spectral_peaks
+
+    dt, n = 1e-3, 100_000  # 100 s: 0.01 Hz bins; tones between bins
+    t = np.arange(n) * dt
+    tones = [(0.437, 2.0e4), (1.73, 8.0e3), (3.61, 5.0e3)]
+    x = 1e5 + sum(a * np.sin(2 * np.pi * f * t + 0.4) for f, a in tones)
+    f, a = amplitude_spectrum(x, dt, window="flattop")
+    peaks = spectral_peaks(f, a, rel_height=0.1)
+    for (f0, a0), p in zip(sorted(tones, key=lambda z: -z[1]), peaks):
+        assert abs(p["frequency_hz"] - f0) <= 0.1
+        assert_allclose(p["amplitude"], a0, rtol=0.01)
+
+
+def test_band_rms_from_the_spectrum_equals_the_time_domain_rms_of_the_band():
+    from ltdsim.spectra import amplitude_spectrum, band_stats
+
+    dt, n = 1e-3, 10_000
+    t = np.arange(n) * dt
+    inside = 3.0 * np.sin(2 * np.pi * 0.7 * t) + 1.5 * np.cos(2 * np.pi * 6.3 * t)
+    outside = 2.0 * np.sin(2 * np.pi * 37.0 * t)  # beyond the 10 Hz band
+    f, a = amplitude_spectrum(5.0 + inside + outside, dt)
+    assert_allclose(band_stats(f, a, 10.0)["rms"], np.sqrt(np.mean(inside**2)), rtol=0.01)
+
+
+def test_main_coupler_force_peaks_lie_in_the_trains_modal_band():
+    from ltdsim.phases import phases_of
+    from ltdsim.spectra import amplitude_spectrum, spectral_peaks
+
+    sc = ltdsim.load_scenario(PAPER, case="LHHL")
+    ds = ltdsim.simulate(sc)
+    # the speed controller holds the locomotive almost fixed: modes of the held chain
+    modes = np.concatenate([train_modes(sc, w, 2, "held").frequency_hz.values
+                            for w in ("low", "high")])
+    lo, hi = modes.min() - 0.1, modes.max() + 0.1  # +- one 0.1 Hz bin
+    for _, a, b in phases_of(ds, sc):
+        w = ds.coupler_force.sel(time=slice(a, b - 1e-9))
+        for c in (0, 7, 8):
+            f, amp = amplitude_spectrum(w.isel(coupler=c).values, 1e-3)
+            main = spectral_peaks(f, amp)[0]["frequency_hz"]
+            assert lo <= main <= hi, (a, c, main, lo, hi)
