@@ -85,3 +85,86 @@ def spectrogram(x, dt: float, segment_s: float = 10.0, overlap: float = 0.75):
                           nperseg=nper, noverlap=int(overlap * nper), detrend="constant",
                           boundary=None, padded=False)
     return f, t, 2.0 * np.abs(z)
+
+
+def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
+                  lead: str = "held", series: int = 2):
+    """Per phase and coupler: largest amplitude (N) and its frequency (Hz), band RMS (N)
+    up to ``f_max``, and the main peaks matched to the train's modes (the study's Tables
+    6 and 7). Modes from :func:`ltdsim.modal.train_modes` at the low (k1) and high
+    (k2 + k3) stiffness; couplers that are not simplified are matched to none."""
+    import json
+
+    import pandas as pd
+
+    from ltdsim.modal import train_modes
+    from ltdsim.phases import phases_of
+    from ltdsim.scenario import Scenario
+
+    if scenario is None:
+        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    try:
+        low = train_modes(scenario, "low", series, lead).frequency_hz.values
+        high = train_modes(scenario, "high", series, lead).frequency_hz.values
+    except ValueError:
+        low, high = (), ()
+    dt = float(ds.time[1] - ds.time[0])
+    rows = []
+    for name, a, b in phases_of(ds, scenario):
+        w = ds.coupler_force.sel(time=slice(a, b - 0.5 * dt))
+        for c in couplers:
+            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt)
+            s = band_stats(f, amp, f_max)
+            peaks = spectral_peaks(f, amp, low, high, f_max)
+            rows.append({"phase": name, "coupler": c, "max_N": s["max"],
+                         "f_at_max_hz": s["f_at_max_hz"], "band_rms_N": s["rms"],
+                         "peaks": "; ".join(f"{p['frequency_hz']:.1f} Hz"
+                                            + (f" ({p['mode']} mode {p['mode_frequency_hz']:.2f})"
+                                               if "mode" in p else "") for p in peaks)})
+    return pd.DataFrame(rows)
+
+
+def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0):
+    """Amplitude spectra per phase (couplers ``couplers``) and a spectrogram of each over
+    the whole run; returns the files."""
+    import json
+    from pathlib import Path
+
+    from ltdsim.phases import phases_of
+    from ltdsim.plotting import _save, plt
+    from ltdsim.scenario import Scenario
+
+    if scenario is None:
+        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    folder = Path(folder)
+    dt = float(ds.time[1] - ds.time[0])
+    phases = phases_of(ds, scenario)
+    files = []
+    fig, axes = plt.subplots(1, len(phases), figsize=(4.2 * len(phases), 4), squeeze=False,
+                             constrained_layout=True)
+    for k, (name, a, b) in enumerate(phases):
+        w = ds.coupler_force.sel(time=slice(a, b - 0.5 * dt))
+        for c in couplers:
+            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt)
+            band = f <= f_max
+            axes[0, k].plot(f[band], amp[band] / 1e3, lw=0.9, label=f"coupler {c}")
+        axes[0, k].set_title(name)
+        axes[0, k].set_xlabel("frequency [Hz]")
+        axes[0, k].grid(alpha=0.3)
+    axes[0, 0].set_ylabel("amplitude [kN]")
+    axes[0, -1].legend(fontsize=7)
+    fig.suptitle("Coupler force spectra per phase")
+    files.append(_save(fig, folder / "spectra_per_phase.png"))
+    fig, axes = plt.subplots(len(couplers), 1, figsize=(11, 2.6 * len(couplers)), squeeze=False,
+                             sharex=True, constrained_layout=True)
+    for k, c in enumerate(couplers):
+        f, t, z = spectrogram(ds.coupler_force.isel(coupler=c).values, dt)
+        band = f <= f_max
+        mesh = axes[k, 0].pcolormesh(t + float(ds.time[0]), f[band], z[band] / 1e3,
+                                     shading="auto", cmap="magma")
+        axes[k, 0].set_ylabel(f"coupler {c}\nfrequency [Hz]")
+        fig.colorbar(mesh, ax=axes[k, 0], label="amplitude [kN]")
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.suptitle("Time-frequency map of coupler forces (10 s Hann windows)")
+    files.append(_save(fig, folder / "spectrogram.png"))
+    return files
