@@ -481,6 +481,58 @@ def spectrum(
     console.print(f"table and {len(files)} figures written to {output}")
 
 
+@app.command()
+def sysid(
+    file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
+    case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
+    poles: Annotated[int, typer.Option(help="number of poles")] = 4,
+    zeros: Annotated[int, typer.Option(help="number of zeros (feed-through included)")] = 3,
+    resample_dt: Annotated[Optional[float], typer.Option(
+        help="identify at this sample time, s (default: the record's)")] = None,
+    output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
+        "results/sysid"),
+) -> None:
+    """Identify the transfer function locomotive force -> first wagon acceleration
+    (study Table 3, Appendix II) and its step metrics (Table 4)."""
+    import json
+
+    from ltdsim.identify import identify_result
+    from ltdsim.io import atomic_path, load_result
+    from ltdsim.response import ramp_error, step_metrics
+    from ltdsim.scenario import load_scenario
+    from ltdsim.simulate import simulate
+
+    try:
+        ds = load_result(file) if file.suffix == ".nc" else simulate(load_scenario(file, case))
+    except (ScenarioError, SimulationError) as exc:
+        _fail(exc)
+        return
+    m = identify_result(ds, resample_dt=resample_dt, na=poles, nb=zeros)
+    info = step_metrics(m.tf())
+    result = {
+        "sample_time_s": m.dt, "numerator_z^-1": m.b.tolist(), "denominator_z^-1": m.a.tolist(),
+        "fpe": m.fpe, "mse": m.mse, "fit_percent": m.fit_percent,
+        "prediction_fit_percent": m.prediction_fit_percent, "function_evaluations": m.evaluations,
+        "cost": m.cost, "norm_of_step": m.step_norm, "first_order_optimality": m.optimality,
+        "step": {k: float(v) for k, v in info.items()}, "ramp_steady_state_error": ramp_error(m.tf()),
+    }
+    table = Table(title=f"Identified model, Ts = {m.dt:g} s, {poles} poles, {zeros} zeros")
+    table.add_column("quantity")
+    table.add_column("value", justify="right")
+    for k in ("fpe", "mse", "fit_percent", "prediction_fit_percent", "function_evaluations",
+              "cost", "norm_of_step", "first_order_optimality"):
+        table.add_row(k, f"{result[k]:.4g}")
+    for k in ("RiseTime", "SettlingTime", "Overshoot", "Peak", "PeakTime"):
+        table.add_row(f"step {k}", f"{info[k]:.4g}")
+    console.print(table)
+    console.print("numerator (z^0, z^-1, ...): " + ", ".join(f"{v:.5g}" for v in m.b))
+    console.print("denominator: " + ", ".join(f"{v:.5g}" for v in m.a))
+    output.mkdir(parents=True, exist_ok=True)
+    with atomic_path(output / "sysid.json") as tmp:
+        tmp.write_text(json.dumps(result, indent=2))
+    console.print(f"written to {output / 'sysid.json'}")
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 
