@@ -138,3 +138,12 @@ def test_identification_of_the_base_scenario_reports_its_fits():
     # study's ~99 % "fit" level, far above the model's own simulation fit
     fine = identify_result(ds)
     assert fine.prediction_fit_percent > 99.0 > fine.fit_percent + 40.0
+
+
+def test_best_response_is_the_fast_one_without_overshoot():
+    from ltdsim.response import rank_responses
+
+    systems = {"slow": control.tf([1], [2.0, 1]), "fast": control.tf([1], [0.2, 1]),
+               "ringing": control.tf([25.0], [1, 2.0, 25.0])}  # 25 % overshoot, fast
+    order = rank_responses({k: step_metrics(v) for k, v in systems.items()})
+    assert order == ["fast", "slow", "ringing"]

@@ -400,7 +400,7 @@ def phases(
 
 @app.command()
 def modal(
-    file: Annotated[Path, typer.Argument(help="scenario file (TOML)")],
+    file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
     case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
     stiffness: Annotated[str, typer.Option(help="low (k1), high (k2 + k3), or N/m")] = "low",
     series: Annotated[int, typer.Option(help="gears in series per coupling")] = 2,
@@ -413,7 +413,15 @@ def modal(
     from ltdsim.scenario import load_scenario
 
     try:
-        sc = load_scenario(file, case=case)
+        if file.suffix == ".nc":
+            import json
+
+            from ltdsim.io import load_result
+            from ltdsim.scenario import Scenario
+
+            sc = Scenario.from_dict(json.loads(load_result(file).attrs["scenario_json"]), str(file))
+        else:
+            sc = load_scenario(file, case=case)
         which = stiffness if stiffness in ("low", "high") else float(stiffness)
         table = train_modes(sc, which, series)
     except (ScenarioError, ValueError) as exc:

@@ -57,3 +57,14 @@ def ramp_error(sys, t_end: float | None = None) -> float:
     if np.ptp(tail) > 1e-6 * max(1.0, np.abs(tail).max()):
         return float("inf")  # still drifting: no steady state (DC gain other than 1)
     return float(tail[-1])
+
+
+def rank_responses(metrics: dict[str, dict], overshoot_tolerance: float = 1.0) -> list[str]:
+    """Case names ordered best first by step response: least overshoot first (cases
+    within ``overshoot_tolerance`` percentage points count as equal), then fastest
+    (shortest settling time, then rise time). ``metrics`` maps case -> step_metrics."""
+    def key(name):
+        m = metrics[name]
+        return (round(m["Overshoot"] / overshoot_tolerance), m["SettlingTime"], m["RiseTime"])
+
+    return sorted(metrics, key=key)
