@@ -541,6 +541,38 @@ def sysid(
     console.print(f"written to {output / 'sysid.json'}")
 
 
+@app.command()
+def study(
+    file: Annotated[Path, typer.Argument(help="scenario file with the cases (TOML)")] = Path(
+        "scenarios/paper.toml"),
+    output: Annotated[Path, typer.Option("--output", "-o", help="report folder")] = Path("report"),
+    case: Annotated[str, typer.Option(help="base case for phases, spectra, modes")] = "LHHL",
+    set_: Annotated[Optional[list[str]], typer.Option("--set", "-s",
+                                                      help="override for every case")] = None,
+    reduction: Annotated[bool, typer.Option(help="run the model reduction")] = True,
+    workers: Annotated[Optional[int], typer.Option(help="local processes")] = None,
+) -> None:
+    """Reproduce the whole study as one report (index.html, CSV tables, netCDF)."""
+    from ltdsim.study import run_study
+
+    try:
+        overrides = parse_set(set_) if set_ else None
+        with Progress(TextColumn("[bold]{task.description}"), TextColumn("{task.fields[msg]}"),
+                      TimeElapsedColumn(), console=err_console) as prog:
+            task = prog.add_task("study", msg="")
+            index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
+                              workers=workers,
+                              progress=lambda st, msg: prog.update(task, description=st, msg=msg))
+    except (ScenarioError, SimulationError) as exc:
+        _fail(exc)
+        return
+    except KeyboardInterrupt:
+        err_console.print("[yellow]interrupted: finished stages and cases are kept; run the "
+                          "same command again to resume[/]")
+        raise typer.Exit(130) from None
+    console.print(f"report written to {index}")
+
+
 def main() -> None:  # pragma: no cover - console entry
     app()
 

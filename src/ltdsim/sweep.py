@@ -65,9 +65,10 @@ class Sweep:
         return self._built[case.id]
 
 
-def fingerprint(scenario: Scenario) -> str:
-    """Content hash of a scenario (what a finished case was computed from)."""
-    text = json.dumps(scenario.to_dict(), sort_keys=True)
+def fingerprint(scenario: Scenario, extras=()) -> str:
+    """Content hash of a scenario and the analyses asked for (what a finished case
+    record was computed from)."""
+    text = json.dumps([scenario.to_dict(), sorted(extras)], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -195,9 +196,12 @@ def case_summary(ds) -> dict:
     }
 
 
-def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False) -> dict:
+def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
+             extras: tuple[str, ...] = ()) -> dict:
     """Simulate one case (in a worker) and return its record; failures are recorded,
-    not raised."""
+    not raised. ``extras`` adds analyses of the time series to the record:
+    ``"sysid"`` (identification locomotive force -> first wagon acceleration at 10 ms,
+    with its step metrics) and ``"spectra"`` (phase spectra of couplers 0, n-2, n-1)."""
     from ltdsim.phases import phase_norms
     from ltdsim.simulate import simulate
 
@@ -212,6 +216,14 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False) -> di
             record["phases"] = [str(p) for p in norms.phase.values]
         except ValueError:
             record["phase_norms"], record["phases"] = {}, []
+        if "sysid" in extras:
+            record["sysid"] = _sysid_record(ds)
+        if "spectra" in extras:
+            from ltdsim.spectra import phase_spectra
+
+            nc = ds.sizes["coupler"]
+            couplers = sorted({0, max(nc - 2, 0), nc - 1})
+            record["spectra"] = phase_spectra(ds, sc, couplers).to_dict(orient="records")
         if keep_result:
             record["result"] = ds
     except LtdsimError as exc:
@@ -221,12 +233,30 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False) -> di
     return record
 
 
+def _sysid_record(ds) -> dict:
+    from ltdsim.identify import identify_result
+    from ltdsim.response import ramp_error, step_metrics
+
+    m = identify_result(ds, resample_dt=0.01)
+    fine = identify_result(ds)
+    info = step_metrics(m.tf())
+    return {"sample_time_s": m.dt, "numerator": m.b.tolist(), "denominator": m.a.tolist(),
+            "fpe": m.fpe, "mse": m.mse, "fit_percent": m.fit_percent,
+            "prediction_fit_percent": m.prediction_fit_percent,
+            "fit_percent_record_dt": fine.fit_percent,
+            "prediction_fit_percent_record_dt": fine.prediction_fit_percent,
+            "evaluations": m.evaluations, "cost": m.cost, "norm_of_step": m.step_norm,
+            "first_order_optimality": m.optimality,
+            "step": {k: float(v) for k, v in info.items()},
+            "ramp_error": ramp_error(m.tf())}
+
+
 # ------------------------------------------------------------------------ sweeps
 def case_path(out: Path, case_id: str) -> Path:
     return out / "cases" / f"{case_id}.json"
 
 
-def finished(out: Path, sweep: Sweep, retry_failed: bool = False) -> set[str]:
+def finished(out: Path, sweep: Sweep, retry_failed: bool = False, extras=()) -> set[str]:
     """Ids of the cases already on disk with the same content fingerprint."""
     done = set()
     for case in sweep.cases:
@@ -237,7 +267,7 @@ def finished(out: Path, sweep: Sweep, retry_failed: bool = False) -> set[str]:
             rec = json.loads(p.read_text())
         except (OSError, json.JSONDecodeError):
             continue  # a damaged file is run again
-        if rec.get("fingerprint") != fingerprint(sweep.scenario(case)):
+        if rec.get("fingerprint") != fingerprint(sweep.scenario(case), extras):
             continue
         if rec.get("status") == "ok" or (rec.get("status") == "failed" and not retry_failed):
             done.add(case.id)
@@ -246,7 +276,7 @@ def finished(out: Path, sweep: Sweep, retry_failed: bool = False) -> set[str]:
 
 def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
               workers: int | None = None, keep_results: bool = False,
-              retry_failed: bool = False,
+              retry_failed: bool = False, extras: tuple[str, ...] = (),
               progress: Callable[[int, int, str], None] | None = None) -> pd.DataFrame:
     """Run the unfinished cases of ``sweep`` into folder ``out``; return the summary.
 
@@ -260,12 +290,15 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
         Also write every case's full time series as ``cases/<id>.nc``.
     retry_failed : bool
         Run again cases recorded as failed.
+    extras : tuple of str
+        Analyses added to each case record (see :func:`run_case`); part of the
+        fingerprint, so asking for more reruns the cases.
     progress : callable, optional
         ``progress(done, total, case_id)`` after each finished case.
     """
     out = Path(out)
     (out / "cases").mkdir(parents=True, exist_ok=True)
-    skip = finished(out, sweep, retry_failed)
+    skip = finished(out, sweep, retry_failed, extras)
     todo = [c for c in sweep.cases if c.id not in skip]
     total = len(sweep.cases)
     done = len(skip)
@@ -277,8 +310,9 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
             futures = {}
             for case in todo:
                 sc = sweep.scenario(case)
-                fut = executor.submit(run_case, sc.to_dict(), case.id, keep_results)
-                futures[fut] = (case, fingerprint(sc))
+                fut = executor.submit(run_case, sc.to_dict(), case.id, keep_results,
+                                      tuple(extras))
+                futures[fut] = (case, fingerprint(sc, extras))
             for fut in cf.as_completed(futures):
                 case, fp = futures[fut]
                 try:
