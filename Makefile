@@ -12,10 +12,9 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e ".[test]"
 	touch $(STAMP)
 
-## run: simulate the study's base scenario (case LHHL), write results/ and a figure
+## run: reproduce the whole study as one report in report/ (about 2 minutes)
 run: $(STAMP)
-	$(BIN)/ltdsim run scenarios/paper.toml --case LHHL \
-	    --output results/paper-LHHL.nc --plot results/paper-LHHL.png
+	$(BIN)/ltdsim study scenarios/paper.toml --output report
 
 ## test: the whole test suite
 test: $(STAMP)
@@ -26,6 +25,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_kernel.py
 	$(BIN)/python benchmarks/bench_draftgear.py
 	$(BIN)/python benchmarks/bench_sweep.py
+	$(BIN)/python benchmarks/bench_study.py
 
 clean:
 	rm -rf $(VENV) results .pytest_cache .hypothesis

@@ -48,3 +48,41 @@ def test_the_report_has_every_table_and_figure_and_only_finite_numbers(tmp_path)
     before = {p: p.stat().st_mtime for p in out.glob("fig*.png")}
     run_study(scenario, out, overrides={"solver.t_end": 12.0}, reduction_maxiter=3, workers=2)
     assert before == {p: p.stat().st_mtime for p in out.glob("fig*.png")}
+
+
+def test_the_report_renders_in_headless_chromium(tmp_path):
+    import shutil
+
+    import pytest
+
+    webdriver = pytest.importorskip("selenium.webdriver")
+    chromium, driver_bin = shutil.which("chromium"), shutil.which("chromedriver")
+    if chromium is None or driver_bin is None:
+        pytest.skip("Debian chromium / chromium-driver not installed (.ci/run installs them)")
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    index = run_study(short_paper(tmp_path, keep=("LHHL",)), tmp_path / "report",
+                      overrides={"solver.t_end": 12.0}, reduction=False, workers=1)
+    opts = Options()
+    opts.binary_location = chromium
+    for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run",
+                 "--window-size=1280,1024", f"--user-data-dir={tmp_path / 'profile'}"):
+        opts.add_argument(flag)
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    browser = webdriver.Chrome(service=Service(driver_bin), options=opts)
+    try:
+        browser.get(index.as_uri())
+        sizes = browser.execute_script(
+            "return Array.from(document.images).map(i => [i.complete, i.naturalWidth, "
+            "i.getBoundingClientRect().width, i.getBoundingClientRect().height]);")
+        shot = tmp_path / "report.png"
+        browser.save_screenshot(str(shot))
+        errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    finally:
+        browser.quit()
+    assert len(sizes) >= 8
+    assert all(done and nat > 0 and w > 0 and h > 0 for done, nat, w, h in sizes), sizes
+    assert errors == []
+    assert shot.stat().st_size > 10_000

@@ -223,9 +223,10 @@ def write_report(out: Path, results: dict, scenario: Scenario, case: str,
 
     page = (f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
             f"<title>ltdsim study report</title><style>{CSS}</style></head><body>"
+            + "".join(parts[:2])
             + "<div class='take'><b>What to take away</b><ul>"
             + "".join(f"<li>{t}</li>" for t in take) + "</ul></div>"
-            + "".join(parts) + "</body></html>")
+            + "".join(parts[2:]) + "</body></html>")
     index = out / "index.html"
     with atomic_path(index) as tmp:
         tmp.write_text(page)
