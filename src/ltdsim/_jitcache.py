@@ -15,15 +15,20 @@ from pathlib import Path
 import numba
 
 def source_hash() -> str:
-    """Hash of every module of the package and the numba version (12 hex digits).
+    """Hash of the package's compiled modules and the numba version (12 hex digits).
 
-    All modules, not a hand-kept list of the compiled ones: a list goes stale silently.
+    The compiled modules are found, not listed: every module that mentions numba (a
+    hand-kept list would go stale silently and load old kernels), plus lowering.py,
+    whose array-layout constants numba freezes into the kernels as globals. Editing a
+    module that numba does not compile leaves the cache valid.
     """
     here = Path(__file__).parent
     h = hashlib.sha256(numba.__version__.encode())
     for path in sorted(here.rglob("*.py")):
-        h.update(str(path.relative_to(here)).encode())
-        h.update(path.read_bytes())
+        text = path.read_bytes()
+        if path.name != "_jitcache.py" and (b"numba" in text or path.name == "lowering.py"):
+            h.update(str(path.relative_to(here)).encode())
+            h.update(text)
     return h.hexdigest()[:12]
 
 
