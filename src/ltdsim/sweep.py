@@ -234,17 +234,17 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
 
 
 def _sysid_record(ds) -> dict:
-    from ltdsim.identify import identify_result
+    from ltdsim.identify import identify_result, prediction_fit
     from ltdsim.response import ramp_error, step_metrics
 
     m = identify_result(ds, resample_dt=0.01)
-    fine = identify_result(ds)
+    u = ds.traction_force.values
+    y = ds.acceleration.values[:, 1] if ds.sizes["vehicle"] > 1 else ds.acceleration.values[:, 0]
     info = step_metrics(m.tf())
     return {"sample_time_s": m.dt, "numerator": m.b.tolist(), "denominator": m.a.tolist(),
             "fpe": m.fpe, "mse": m.mse, "fit_percent": m.fit_percent,
             "prediction_fit_percent": m.prediction_fit_percent,
-            "fit_percent_record_dt": fine.fit_percent,
-            "prediction_fit_percent_record_dt": fine.prediction_fit_percent,
+            "prediction_fit_percent_record_dt": prediction_fit(u, y),
             "evaluations": m.evaluations, "cost": m.cost, "norm_of_step": m.step_norm,
             "first_order_optimality": m.optimality,
             "step": {k: float(v) for k, v in info.items()},
