@@ -15,7 +15,7 @@ def short_paper(tmp_path, keep=("LHHL", "HHHH")):
     head, _, cases = text.partition("[cases.")
     blocks = ("[cases." + cases).split("\n[cases.")
     kept = [b if b.startswith("[cases.") else "[cases." + b for b in blocks
-            if any(b.lstrip("[cases.").startswith(k) for k in keep)]
+            if any(b.removeprefix("[cases.").startswith(k) for k in keep)]
     p = tmp_path / "paper-short.toml"
     p.write_text(head + "\n".join(kept))
     return p

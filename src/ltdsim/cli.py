@@ -48,6 +48,22 @@ def parse_set(items: list[str]) -> dict:
     return out
 
 
+def _result_or_scenario(file: Path, case: Optional[str], run: bool = True):
+    """``(dataset, scenario)`` from a saved result (.nc; its scenario from the attributes)
+    or from a scenario file (simulated when ``run``)."""
+    import json
+
+    from ltdsim.io import load_result
+    from ltdsim.scenario import Scenario, load_scenario
+    from ltdsim.simulate import simulate
+
+    if file.suffix == ".nc":
+        ds = load_result(file)
+        return ds, Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), str(file))
+    sc = load_scenario(file, case=case)
+    return (simulate(sc) if run else None), sc
+
+
 def _fail(exc: LtdsimError) -> None:
     kind = "invalid input" if isinstance(exc, ScenarioError) else "simulation failed"
     err_console.print(f"[bold red]error ({kind}):[/] {exc}", highlight=False, soft_wrap=True)
@@ -410,18 +426,9 @@ def modal(
     """Natural frequencies and mode shapes of the train (study Fig. 8)."""
     from ltdsim.io import atomic_path
     from ltdsim.modal import save_mode_shapes, train_modes
-    from ltdsim.scenario import load_scenario
 
     try:
-        if file.suffix == ".nc":
-            import json
-
-            from ltdsim.io import load_result
-            from ltdsim.scenario import Scenario
-
-            sc = Scenario.from_dict(json.loads(load_result(file).attrs["scenario_json"]), str(file))
-        else:
-            sc = load_scenario(file, case=case)
+        _, sc = _result_or_scenario(file, case, run=False)
         which = stiffness if stiffness in ("low", "high") else float(stiffness)
         table = train_modes(sc, which, series)
     except (ScenarioError, ValueError) as exc:
@@ -452,18 +459,12 @@ def spectrum(
         "results/spectra"),
 ) -> None:
     """Coupler force spectra per phase (study Tables 6-7) and a spectrogram."""
-    from ltdsim.io import atomic_path, load_result
-    from ltdsim.scenario import load_scenario
-    from ltdsim.simulate import simulate
+    from ltdsim.io import atomic_path
     from ltdsim.spectra import phase_spectra, spectra_figures
 
     try:
         which = tuple(int(c) for c in couplers.split(",") if c.strip())
-        if file.suffix == ".nc":
-            ds, sc = load_result(file), None
-        else:
-            sc = load_scenario(file, case=case)
-            ds = simulate(sc)
+        ds, sc = _result_or_scenario(file, case)
         bad = [c for c in which if not 0 <= c < ds.sizes["coupler"]]
         if bad:
             raise ScenarioError("--couplers", [("couplers", f"{bad} out of range 0-"
@@ -505,13 +506,11 @@ def sysid(
     import json
 
     from ltdsim.identify import identify_result
-    from ltdsim.io import atomic_path, load_result
+    from ltdsim.io import atomic_path
     from ltdsim.response import ramp_error, step_metrics
-    from ltdsim.scenario import load_scenario
-    from ltdsim.simulate import simulate
 
     try:
-        ds = load_result(file) if file.suffix == ".nc" else simulate(load_scenario(file, case))
+        ds, _ = _result_or_scenario(file, case)
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return

@@ -28,7 +28,6 @@ import numpy as np
 import pandas as pd
 
 from ltdsim import __version__
-from ltdsim.data import study_tables
 from ltdsim.io import atomic_path, save_result
 from ltdsim.scenario import CouplerParams, Scenario, load_scenario
 
