@@ -147,3 +147,15 @@ def test_best_response_is_the_fast_one_without_overshoot():
                "ringing": control.tf([25.0], [1, 2.0, 25.0])}  # 25 % overshoot, fast
     order = rank_responses({k: step_metrics(v) for k, v in systems.items()})
     assert order == ["fast", "slow", "ringing"]
+
+
+def test_welch_psd_integrates_to_the_variance_and_peaks_at_the_tone():
+    from ltdsim.spectra import welch_psd
+
+    dt = 1e-3
+    t = np.arange(200_000) * dt
+    rng = np.random.default_rng(5)
+    x = 4.0 * np.sin(2 * np.pi * 1.3 * t) + rng.normal(scale=0.5, size=t.size)
+    f, p = welch_psd(x, dt, segment_s=20.0)
+    assert_allclose(np.trapezoid(p, f), np.var(x), rtol=0.02)  # Parseval
+    assert abs(f[np.argmax(p)] - 1.3) <= 0.05

@@ -134,7 +134,7 @@ def identify(u, y, dt: float, na: int = 4, nb: int = 3, max_nfev: int = 1000,
     mse = float(np.mean(r**2))
     fpe = mse * (1 + n_par / half) / (1 - n_par / half)
     step = float(np.linalg.norm(linalg.lstsq(res.jac, res.fun)[0]))
-    y_val = signal.lfilter(b, a, uv, zi=_initial_state(b, a, u[:half], y[:half]))[0]
+    y_val = signal.lfilter(b, a, uv, zi=_initial_state(b, a, u[:half]))[0]
     fit = fit_percent(yv, y_val)
     pred = fit_percent(yv, one_step_prediction(b, a, u, y)[half:])
     return Identified(b=b, a=a, dt=dt, fpe=float(fpe), mse=mse, fit_percent=fit,
@@ -165,7 +165,7 @@ def prediction_fit(u, y, na: int = 4, nb: int = 3) -> float:
     return fit_percent(y[half:], sy * one_step_prediction(b, a, u / su, y / sy)[half:])
 
 
-def _initial_state(b, a, u_past, y_past):
+def _initial_state(b, a, u_past):
     """Filter state that continues the estimation half into the validation half (the
     model's own simulated output, so no measured output leaks into the validation)."""
     _, zf = signal.lfilter(b, a, u_past, zi=np.zeros(max(len(a), len(b)) - 1))

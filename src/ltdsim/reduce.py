@@ -26,6 +26,7 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from ltdsim.gear import MODE_FORCE, STUDY_SINES, _lowered_gear, integrate_rig, sine_chain
+from ltdsim.identify import fit_percent
 from ltdsim.lowering import P_DAMP, P_K1, P_K2, P_K3, P_VC
 from ltdsim.physics.couplers import coupler_simplified
 from ltdsim.scenario import CouplerParams
@@ -138,12 +139,6 @@ class Reduction:
         lines += [f"{k} = {v:.6g}   # {units[k]}" for k, v in self.parameters.items()]
         lines.append(f"# fitted by ltdsim reduce: fit {self.fit_percent:.2f} %")
         return "\n".join(lines) + "\n"
-
-
-def fit_percent(y, y_hat) -> float:
-    """Normalised fit, %: ``100 (1 - ||y - y_hat|| / ||y - mean(y)||)``."""
-    y = np.asarray(y)
-    return float(100.0 * (1.0 - np.linalg.norm(y - y_hat) / np.linalg.norm(y - y.mean())))
 
 
 def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None,

@@ -86,9 +86,9 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
     """
     low = lower(scenario)
     t0 = _time.perf_counter()
-    y, rec = _integrate(low, scenario, progress, chunks, compile_only=True)
+    _integrate(low, scenario, progress, chunks, compile_only=True)
     t1 = _time.perf_counter()
-    y, rec = _integrate(low, scenario, progress, chunks)
+    rec = _integrate(low, scenario, progress, chunks)
     wall = _time.perf_counter() - t1
     return _dataset(scenario, low, rec, wall, compile_time=t1 - t0)
 
@@ -120,7 +120,7 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
             low.curve_h, low.trac, low.drv, low.prof_t, low.prof_y,
             rec["x"], rec["v"], rec["a"], rec["d"], rec["f"], rec["s"], work, hints)
         if compile_only:
-            return y, rec
+            return rec
         if status != kernel.OK:
             raise _nonfinite_error(scenario, low, y, k_end)
         k = k_stop
@@ -128,7 +128,7 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
             progress(k * low.dt, low.n_steps * low.dt)
         if k >= low.n_steps:
             break
-    return y, rec
+    return rec
 
 
 def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, k: int) -> SimulationError:

@@ -86,7 +86,8 @@ def _stage_reduction(out, cache, maxiter, workers):
     return cache.put("reduction", key, rows, files)
 
 
-def _stage_sweep(out, cache, scenario_path, overrides, workers, progress):
+def _stage_sweep(out, scenario_path, overrides, workers, progress):
+    # (no stage cache: the sweep keeps every finished case itself, by fingerprint)
     from ltdsim import sweep as sw
 
     spec = sw.load_sweep(scenario_path)
@@ -182,7 +183,7 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
         say("reduction", "fitting the simplified coupler to the friction gears")
         results["reduction"] = _stage_reduction(out, cache, reduction_maxiter, workers or -1)
     say("sweep", "running the cases")
-    results["sweep"] = _stage_sweep(out, cache, scenario_path, overrides, workers, say)
+    results["sweep"] = _stage_sweep(out, scenario_path, overrides, workers, say)
     say("base", f"base case {case}: phases, spectra")
     results["base"] = _stage_base(out, cache, base_case)
     say("modal", "natural frequencies")

@@ -27,7 +27,7 @@ def run_summary(ds: xr.Dataset) -> dict[str, float]:
     peak traction (N), and whether traction ever exceeded adhesion."""
     err = ds.speed_error.values
     finite = np.isfinite(err)
-    out = {
+    return {
         "rms_speed_error_m_s": float(np.sqrt(np.mean(err[finite] ** 2))) if finite.any() else float("nan"),
         "max_speed_error_m_s": float(np.max(np.abs(err[finite]))) if finite.any() else float("nan"),
         "max_abs_acceleration_m_s2": float(np.abs(ds.acceleration.values).max()),
@@ -38,4 +38,3 @@ def run_summary(ds: xr.Dataset) -> dict[str, float]:
         "wall_time_s": float(ds.attrs.get("wall_time_s", float("nan"))),
         "compile_time_s": float(ds.attrs.get("compile_time_s", 0.0)),
     }
-    return out

@@ -98,20 +98,6 @@ def psi_plates_unloading(psi3, tg, mu1, mu4):
 
 
 @njit(cache=True, inline="always")
-def wedge_psi(ta, tb, tg, mu1, mu2, mu3, mu4):
-    """Force ratios psi_1..psi_4 of the four stages (paper Eq. 1).
-
-    ``ta, tb, tg`` are tan(alpha), tan(beta), tan(gamma) of the wedge angles;
-    ``mu1..mu4`` the friction coefficients of the wedge-shoe/inner-plate (lubricated),
-    central-wedge/shoe, spring-seat/shoe and movable-plate surfaces.
-    """
-    psi1 = psi_loading(ta, tb, tg, mu1, mu2, mu3)
-    psi3 = psi_unloading(ta, tb, tg, mu1, mu2, mu3)
-    return (psi1, psi_plates_loading(psi1, tg, mu1, mu4), psi3,
-            psi_plates_unloading(psi3, tg, mu1, mu4))
-
-
-@njit(cache=True, inline="always")
 def wedge_geometry(alpha, beta, gamma):
     """``(tan a, tan b, tan g, G, c1, c2, c3)`` for wedge angles in rad.
 
@@ -313,14 +299,9 @@ def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor,
     return f_l if loading > 0.5 else f_u
 
 
-def geometry_ratio(alpha: float, beta: float, gamma: float) -> float:
-    """Main-spring lever ratio G of the wedge gear (angles in rad), -."""
-    return float(wedge_geometry(alpha, beta, gamma)[3])
-
-
 __all__ = [
     "friction_coefficient", "psi_loading", "psi_unloading", "psi_plates_loading",
-    "psi_plates_unloading", "wedge_psi", "wedge_geometry", "spring_forces", "wedge_curves",
+    "psi_plates_unloading", "wedge_geometry", "spring_forces", "wedge_curves",
     "hysteresis", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
-    "wedge_gear_quasistatic", "geometry_ratio",
+    "wedge_gear_quasistatic",
 ]
