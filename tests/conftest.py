@@ -6,8 +6,10 @@ import copy
 from pathlib import Path
 
 import pytest
+from scipy.integrate import solve_ivp
 
 from ltdsim import Scenario
+from ltdsim.reference import make_rhs
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "scenarios" / "paper.toml"
@@ -47,3 +49,19 @@ def build(d: dict) -> Scenario:
 @pytest.fixture(scope="session")
 def paper_path() -> Path:
     return PAPER
+
+
+def smooth_chain(method, dt, t_end=2.0):
+    """A smooth linear chain (no slack) driven by a constant force, recorded at the end."""
+    return train_dict([20000.0, 10000.0, 15000.0, 10000.0], force=1e5, t_end=t_end, dt=dt,
+                      output_interval=t_end, method=method, speed=1.0,
+                      coupler={"model": "linear", "stiffness": 1e6, "damping": 2e3, "slack": 0.0})
+
+
+@pytest.fixture(scope="module")
+def chain_reference():
+    """The smooth chain's final state from DOP853 at tolerance 1e-13."""
+    sc = build(smooth_chain("ode3", 1e-3))
+    f, y0 = make_rhs(sc)
+    sol = solve_ivp(f, (0.0, 2.0), y0, method="DOP853", rtol=1e-13, atol=1e-13)
+    return sol.y[:, -1]

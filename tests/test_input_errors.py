@@ -106,3 +106,32 @@ def test_a_diverging_simulation_stops_and_names_time_vehicle_and_values():
     msg = str(err)
     assert f"t = {err.time:.6g} s" in msg and "vehicle" in msg and "velocity" in msg
     assert np.isfinite(err.time)
+
+
+HH = (ROOT / "scenarios" / "heavy-haul.toml").read_text()
+
+
+@pytest.mark.parametrize("old,new,key,words", [
+    ("vehicles = [107, 108]", "vehicles = [107, 300]", "locomotives", "out of range 0-213"),
+    ("vehicles = [107, 108]", "vehicles = [107, 110]", "locomotives", "is not powered"),
+    ("vehicles = [107, 108]", "vehicles = [1, 108]", "locomotives", "already in 'lead'"),
+    ("propagation_speed = 250.0", "propagation_speed = 2500.0", "brake.propagation_speed",
+     "less than or equal to 400"),
+    ("time_constant = 1.5 ", "time_constant = 0.0 ", "traction", "jerk_limit"),
+    ("shoes = 8, friction_table", "shoes = 0, friction_table", "vehicles.1.brake.shoes",
+     "greater than or equal to 1"),
+    ("brake_controller = true", "brake_controller = true\nnotch_profile = [[0.0, 2.5]]",
+     "driver.notch_profile", "whole notches in [-8, 8]"),
+    ("method = \"bs23\"", "method = \"bs45\"", "solver.method", "bs23"),
+])
+def test_bad_brake_traction_and_solver_keys_are_named(tmp_path, old, new, key, words):
+    assert old in HH
+    msg = load_error(tmp_path, HH.replace(old, new, 1))
+    assert key in msg and words in msg, msg
+
+
+def test_brake_commands_without_brakes_are_refused():
+    d = train_dict([1e5, 1e5])
+    d["driver"]["brake_profile"] = [[1.0, 0.5]]
+    with pytest.raises(ScenarioError, match="no vehicle has a \\[brake\\] table"):
+        build(d)

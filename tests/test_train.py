@@ -9,7 +9,7 @@ from scipy.optimize import brentq
 import ltdsim
 from ltdsim.reference import make_rhs
 
-from conftest import build, train_dict
+from conftest import build, smooth_chain, train_dict
 
 MASSES = [80000.0, 60000.0, 90000.0, 45000.0, 70000.0]
 
@@ -83,20 +83,6 @@ def test_a_train_held_on_a_one_in_two_hundred_grade_stays_still():
     assert np.max(np.abs(ds.velocity.isel(time=-1).values)) < 1e-6
 
 
-def _smooth_chain(method, dt, t_end=2.0):
-    return train_dict([20000.0, 10000.0, 15000.0, 10000.0], force=1e5, t_end=t_end, dt=dt,
-                      output_interval=t_end, method=method, speed=1.0,
-                      coupler={"model": "linear", "stiffness": 1e6, "damping": 2e3, "slack": 0.0})
-
-
-@pytest.fixture(scope="module")
-def chain_reference():
-    sc = build(_smooth_chain("ode3", 1e-3))
-    f, y0 = make_rhs(sc)
-    sol = solve_ivp(f, (0.0, 2.0), y0, method="DOP853", rtol=1e-13, atol=1e-13)
-    return sol.y[:, -1]
-
-
 def _final_state(ds):
     return np.concatenate([ds.position.values[-1] - ds.position.values[0], ds.velocity.values[-1]])
 
@@ -107,17 +93,17 @@ def test_measured_order_of_convergence_matches_the_method(method, order, chain_r
            4: [8e-3, 4e-3, 2e-3]}[order]
     errors = []
     for dt in dts:
-        ds = ltdsim.simulate(build(_smooth_chain(method, dt)))
+        ds = ltdsim.simulate(build(smooth_chain(method, dt)))
         errors.append(np.max(np.abs(_final_state(ds) - chain_reference)))
     rates = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert_allclose(rates, order, atol=0.1), (errors, rates)
 
 
 def test_ode3_at_a_small_step_agrees_with_solve_ivp(chain_reference):
-    ds = ltdsim.simulate(build(_smooth_chain("ode3", 1e-4)))
+    ds = ltdsim.simulate(build(smooth_chain("ode3", 1e-4)))
     y = _final_state(ds)
     assert np.max(np.abs(y - chain_reference)) <= 1e-6 * np.max(np.abs(chain_reference))
-    sc = build(_smooth_chain("ode3", 1e-4))
+    sc = build(smooth_chain("ode3", 1e-4))
     f, y0 = make_rhs(sc)
     sol = solve_ivp(f, (0.0, 2.0), y0, method="RK45", rtol=1e-10, atol=1e-12)
     assert_allclose(y, sol.y[:, -1], rtol=1e-6, atol=1e-9)

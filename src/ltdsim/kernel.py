@@ -16,31 +16,143 @@ import numpy as np
 from numba import njit
 
 from ltdsim.lowering import (
-    C_LINEAR, C_SIMPLIFIED, C_WEDGE, D_EVERY, D_FILT, D_INT, D_KD, D_KI, D_KP, D_MODE, D_N,
-    D_TS, MODE_SPEED,
-    P_BACK, P_C1, P_C2, P_C3, P_D0, P_DAMP, P_F0, P_G, P_GAP, P_H1, P_H2, P_H3, P_K1, P_K2, P_K3,
-    P_KLOCK, P_KM, P_KR, P_KSOLID, P_NLOAD, P_NUNL, P_PRELOAD, P_RATE, P_S, P_SLACK, P_SNV,
-    P_SNX, P_STAB, P_STIFF, P_TA, P_TB, P_TG, P_TLOAD, P_TRAVEL, P_TUNL, P_VC, P_XM0, P_XR0,
+    C_LINEAR,
+    C_SIMPLIFIED,
+    C_WEDGE,
+    D_BCTRL,
+    D_BFULLSUM,
+    D_BPLEN,
+    D_BPOFF,
+    D_BSHOEREF,
+    D_BSLEN,
+    D_BSOFF,
+    D_BSTEP,
+    D_BTAUA,
+    D_BTAUR,
+    D_BVS,
+    D_EVERY,
+    D_FILT,
+    D_INT,
+    D_KD,
+    D_KI,
+    D_KP,
+    D_MODE,
+    D_N,
+    D_TS,
+    K_FMAX,
+    K_MADH,
+    K_NLEN,
+    K_NOFF,
+    K_PMAX,
+    K_RATE,
+    K_SHARE,
+    K_TAU,
+    K_VEH,
+    K_Z,
+    MODE_FORCE,
+    MODE_NOTCH,
+    MODE_SPEED,
+    P_BACK,
+    P_C1,
+    P_C2,
+    P_C3,
+    P_D0,
+    P_DAMP,
+    P_F0,
+    P_G,
+    P_GAP,
+    P_H1,
+    P_H2,
+    P_H3,
+    P_K1,
+    P_K2,
+    P_K3,
+    P_KLOCK,
+    P_KM,
+    P_KR,
+    P_KSOLID,
+    P_NLOAD,
+    P_NUNL,
+    P_PRELOAD,
+    P_RATE,
+    P_S,
+    P_SLACK,
+    P_SNV,
+    P_SNX,
+    P_STAB,
+    P_STIFF,
+    P_TA,
+    P_TB,
+    P_TG,
+    P_TLOAD,
+    P_TRAVEL,
+    P_TUNL,
+    P_VC,
+    P_XM0,
+    P_XR0,
     P_ZOFF,
-    T_DMAX, T_AMAX, T_FF, T_FMAX, T_G, T_MADH, T_MTOT, T_PMAX, T_REF,
-    V_DA, V_DB, V_DC, V_DV0, V_MASS, V_P0, V_SHARE, V_WMASS,
+    T_AMAX,
+    T_DMAX,
+    T_FF,
+    T_G,
+    T_MTOT,
+    T_REF,
+    V_BDELAY,
+    V_BFRIC,
+    V_BFULL,
+    V_BMU,
+    V_BNTAB,
+    V_BSHOE,
+    V_BTAB,
+    V_BZ,
+    V_CONS,
+    V_DA,
+    V_DB,
+    V_DC,
+    V_DV0,
+    V_MASS,
+    V_P0,
+    V_SHARE,
+    V_WMASS,
+)
+from ltdsim.physics.brakes import (
+    FRICTION_CONSTANT,
+    FRICTION_KARWATZKI,
+    brake_retardation,
+    karwatzki,
 )
 from ltdsim.physics.control import pid_step
 from ltdsim.physics.couplers import coupler_linear, coupler_simplified
 from ltdsim.physics.draftgear import (
-    hysteresis, plate_rate, plates_carried, plates_out, s_table_lookup, table_curve,
+    hysteresis,
+    plate_rate,
+    plates_carried,
+    plates_out,
+    s_table_lookup,
+    table_curve,
     wedge_curves,
 )
-from ltdsim.physics.resistance import curve_resistance, davis_resistance, grade_resistance
+from ltdsim.physics.resistance import (
+    curve_resistance,
+    davis_resistance,
+    grade_resistance,
+)
 from ltdsim.physics.traction import adhesion_limit, traction_limit
 
 #: kernel return codes
-OK, NONFINITE = 0, 1
+OK, NONFINITE, EVENTS_FULL = 0, 1, 2
 #: columns of the recorded scalar signals
-S_TRACTION, S_VREF, S_ADHESION, S_ADEM, S_DEMAND = range(5)
-N_SCALARS = 5
-#: controller state: [PID integrator, PID filter, held demand m/s^2, last reference m/s]
-N_CTRL = 4
+S_TRACTION, S_VREF, S_ADHESION, S_ADEM, S_DEMAND, S_BRAKE = range(6)
+N_SCALARS = 6
+#: length of the right-hand side's signal vector (traction, reference speed, demand,
+#: total resistance)
+N_SIG = 4
+#: controller state: PID integrator and filter (0, 1), held demand m/s^2, last reference
+#: m/s, number of brake commands issued, last commanded level, next scheduled command,
+#: next position trigger, next controller sample (bs23)
+(C_PI, C_PF, C_ADEM, C_VREF, C_NEV, C_LEVEL, C_NEXT_SCHED, C_NEXT_POS,
+ C_NEXT_SAMPLE) = range(9)
+N_CTRL = 9
 
 
 @njit(cache=True, inline="always")
@@ -110,7 +222,9 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
         # decay ends in subnormal numbers, which are slow on every CPU.)
         dy[dzo] = rate * (cpl[j, P_F0] - f1)
         dy[dzo + 1] = plate_rate(-gap, p, 0.0, delta, rate) if p > 1e-12 else 0.0
-        dy[dzo + 2] = rate * (abs(dd) - v0)
+        # (Only an S table reads the impact speed; without one it stays put, which costs
+        # an adaptive integrator nothing.)
+        dy[dzo + 2] = rate * (abs(dd) - v0) if wedge and cpl[j, P_STAB] >= 0.0 else 0.0
         return 0.0
     v = sgn * dd  # > 0 while the gear closes
     if wedge:
@@ -162,19 +276,81 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
 
 
 @njit(cache=True, inline="always")
-def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac,
-        drv, prof_t, prof_y, dy, off, force, defl, res, sig, hints):
+def _held(xs, ys, x, hints, slot):
+    """Value of the step function ``(xs, ys)`` at ``x``: ``ys[k]`` from ``xs[k]`` on."""
+    k = _segment(xs, x, hints[slot])
+    hints[slot] = k
+    return ys[k]
+
+
+@njit(cache=True, inline="always")
+def _held_at(tab, off, m, x):
+    """Step function stored as ``m`` abscissae then ``m`` values from ``tab[off]``."""
+    k = 0
+    while k + 1 < m and tab[off + k + 1] <= x:
+        k += 1
+    return tab[off + m + k]
+
+
+@njit(cache=True, inline="always")
+def _interp_at(tab, off, m, x):
+    """Linear interpolation of ``m`` points stored as abscissae then values from
+    ``tab[off]``, constant beyond the ends."""
+    if x <= tab[off]:
+        return tab[off + m]
+    k = 0
+    while k + 1 < m and tab[off + k + 1] <= x:
+        k += 1
+    if k + 1 >= m:
+        return tab[off + m + k]
+    x0 = tab[off + k]
+    w = (x - x0) / (tab[off + k + 1] - x0)
+    return tab[off + m + k] + w * (tab[off + m + k + 1] - tab[off + m + k])
+
+
+@njit(cache=True, inline="always")
+def shoe_friction(i, v, shoe_force, veh, ctab):
+    """Shoe-wheel friction coefficient of vehicle ``i``'s brake at speed ``v`` (m/s)
+    and force per shoe ``shoe_force`` (N)."""
+    model = int(veh[i, V_BFRIC])
+    if model == FRICTION_KARWATZKI:
+        return karwatzki(v, shoe_force)
+    if model == FRICTION_CONSTANT:
+        return veh[i, V_BMU]
+    return _interp_at(ctab, int(veh[i, V_BTAB]), int(veh[i, V_BNTAB]), abs(v))
+
+
+@njit(cache=True, inline="always")
+def brake_target(t, delay, events, n_events):
+    """Brake level (0-1) that the latest command to have reached a vehicle with signal
+    delay ``delay`` (s) asks for at time ``t`` (s); 0 before any command arrives."""
+    e = n_events - 1
+    while e >= 0:
+        if events[e, 0] + delay <= t:
+            return events[e, 1]
+        e -= 1
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
+        trac, drv, prof_t, prof_y, events, n_events, dy, off, force, defl, res, bforce, fcons,
+        sig, hints):
     """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + len(y)]``.
 
     Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
-    per vehicle, N) and ``sig[0:3]`` (traction force N, speed of the reference vehicle
-    m/s, traction demand before the traction-curve limit N). ``hints``
-    holds search cursors (``[0, n)`` track, ``n`` force and ``n + 1`` speed profile); they change
-    only how fast a lookup is, never its result.
+    per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing forward
+    motion), ``fcons`` (force of each locomotive consist, N) and ``sig[0:4]`` (total
+    traction force N, speed of the reference vehicle m/s, traction demand before the
+    traction-curve limits N, total resistance N). ``hints`` holds search cursors
+    (``[0, n)`` track, ``n`` driver profile, ``n + 1`` speed profile, ``n + 2 + c`` the
+    own notch profile of consist c); they change only how fast a lookup is, never its
+    result.
     """
     n = veh.shape[0]
     g = trac[T_G]
     rtot = 0.0
+    vs = drv[D_BVS]
     for i in range(n):
         v = y[n + i]
         p = veh[i, V_P0] + y[i]
@@ -184,18 +360,60 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curv
         hints[i] = kt
         r += grade_resistance(wm, tgrade[kt], g)
         r += curve_resistance(v, wm, tcurv[kt], curve_h, g)
-        res[i] = r
         rtot += r
-    vl = y[n + int(trac[T_REF])]
-    if drv[D_MODE] == MODE_SPEED:
+        zb = int(veh[i, V_BZ])
+        if zb >= 0:  # air brake: cylinder fill follows the command that has arrived
+            target = brake_target(t, veh[i, V_BDELAY], events, n_events)
+            fill = y[zb]
+            tau = drv[D_BTAUA] if target > fill else drv[D_BTAUR]
+            dy[off + zb] = (target - fill) / tau
+            fb = 0.0
+            if fill > 0.0:
+                shoe = fill * veh[i, V_BSHOE]
+                fb = -brake_retardation(v, fill * veh[i, V_BFULL]
+                                        * shoe_friction(i, v, shoe, veh, ctab), vs)
+            bforce[i] = fb
+            r += fb
+        res[i] = r
+    mode = drv[D_MODE]
+    fd = 0.0
+    if mode == MODE_SPEED:
         fd = a_dem * trac[T_MTOT] + trac[T_FF] * rtot
-    else:
+    elif mode == MODE_FORCE:
         fd = _interp(prof_t, prof_y, t, hints, n)
-    lim = traction_limit(vl, trac[T_FMAX], trac[T_PMAX], trac[T_MADH], g)
-    ftr = min(max(fd, -lim), lim)
-    sig[0] = ftr
-    sig[1] = vl
-    sig[2] = fd
+    else:
+        fd = _held(prof_t, prof_y, t, hints, n) / 8.0  # notch fraction
+    ftot = 0.0
+    fdem = 0.0
+    for c in range(cons.shape[0]):
+        vc = y[n + int(cons[c, K_VEH])]
+        lim = traction_limit(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
+        m_own = int(cons[c, K_NLEN])
+        if m_own > 0:
+            dem = _held_at(ctab, int(cons[c, K_NOFF]), m_own, t) / 8.0 * lim
+        elif mode == MODE_NOTCH:
+            dem = fd * lim
+        else:
+            dem = fd * cons[c, K_SHARE]
+        fdem += dem
+        dl = min(max(dem, -lim), lim)
+        z = int(cons[c, K_Z])
+        if z >= 0:  # motor and inverter lag, with the jerk limit on its rate
+            f = y[z]
+            rate = (dl - f) / cons[c, K_TAU]
+            rmax = cons[c, K_RATE]
+            if rmax > 0.0:
+                rate = min(max(rate, -rmax), rmax)
+            dy[off + z] = rate
+            f = min(max(f, -lim), lim)
+        else:
+            f = dl
+        fcons[c] = f
+        ftot += f
+    sig[0] = ftot
+    sig[1] = y[n + int(trac[T_REF])]
+    sig[2] = fdem
+    sig[3] = rtot
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
@@ -203,7 +421,10 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curv
         force[j] = f
         defl[j] = d
     for i in range(n):
-        f = veh[i, V_SHARE] * ftr - res[i]
+        f = -res[i]
+        kc = int(veh[i, V_CONS])
+        if kc >= 0:
+            f += veh[i, V_SHARE] * fcons[kc]
         if i < n - 1:
             f -= force[i]
         if i > 0:
@@ -212,38 +433,138 @@ def rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curv
         dy[off + n + i] = f * inv_m[i]
 
 
-def work_size(n: int, ny: int, stages: int) -> int:
-    """Length of the float work array :func:`run` needs for ``n`` vehicles and a state
-    of ``ny`` elements."""
-    return stages * ny + ny + 2 * max(n - 1, 1) + 2 * n + 3
+@njit(cache=True, inline="always")
+def _push_event(events, ctrl, t, level):
+    """Append brake command ``(t, level)``; False when the event store is full."""
+    m = int(ctrl[C_NEV])
+    if m >= events.shape[0]:
+        return False
+    events[m, 0] = t
+    events[m, 1] = level
+    ctrl[C_NEV] = m + 1
+    ctrl[C_LEVEL] = level
+    return True
+
+
+@njit(cache=True, inline="always")
+def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig, sampled):
+    """Issue the brake commands due at the start of a step at ``t`` (s).
+
+    Scheduled applications with times before ``t + horizon`` are issued at their own
+    times; a position trigger when the lead vehicle has passed it; a controller-made
+    application (at controller samples, ``sampled``) when the demanded braking force
+    exceeds the dynamic brake. Returns -1 if the event store overflowed, else the
+    number of commands issued.
+    """
+    issued = 0
+    m = int(drv[D_BSLEN])
+    if m > 0:
+        o = int(drv[D_BSOFF])
+        k = int(ctrl[C_NEXT_SCHED])
+        while k < m and ctab[o + k] < t + horizon:
+            if not _push_event(events, ctrl, ctab[o + k], ctab[o + m + k]):
+                return -1
+            issued += 1
+            k += 1
+        ctrl[C_NEXT_SCHED] = k
+    m = int(drv[D_BPLEN])
+    if m > 0:
+        o = int(drv[D_BPOFF])
+        k = int(ctrl[C_NEXT_POS])
+        lead = veh[0, V_P0] + y[0]
+        while k < m and ctab[o + k] <= lead:
+            if not _push_event(events, ctrl, t, ctab[o + m + k]):
+                return -1
+            issued += 1
+            k += 1
+        ctrl[C_NEXT_POS] = k
+    if sampled and drv[D_BCTRL] > 0.0:
+        n = veh.shape[0]
+        g = trac[T_G]
+        # braking force still wanted after the dynamic brake of every consist
+        want = -(ctrl[C_ADEM] * trac[T_MTOT] + trac[T_FF] * sig[3])
+        for c in range(cons.shape[0]):
+            vc = y[n + int(cons[c, K_VEH])]
+            want -= traction_limit(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
+        level = 0.0
+        if want > 0.0:
+            v = y[n + int(trac[T_REF])]
+            cap = drv[D_BFULLSUM] * karwatzki_or_mean(v, drv, veh, ctab)
+            level = min(want / cap, 1.0) if cap > 0.0 else 1.0
+        step = drv[D_BSTEP]
+        q = min(round(level / step) * step, 1.0)
+        if q != ctrl[C_LEVEL]:
+            if not _push_event(events, ctrl, t, q):
+                return -1
+            issued += 1
+    return issued
+
+
+@njit(cache=True, inline="always")
+def karwatzki_or_mean(v, drv, veh, ctab):
+    """Friction coefficient the controller expects at speed ``v`` (m/s): that of the
+    first braked vehicle's shoes at the mean full shoe force."""
+    for i in range(veh.shape[0]):
+        if veh[i, V_BZ] >= 0:
+            return shoe_friction(i, v, drv[D_BSHOEREF], veh, ctab)
+    return 0.0
+
+
+def work_size(n: int, ny: int, stages: int, n_consists: int = 1) -> int:
+    """Length of the float work array :func:`run` and :func:`run_adaptive` need for
+    ``n`` vehicles, a state of ``ny`` elements and ``stages`` stage derivatives."""
+    return stages * ny + 2 * ny + 2 * max(n - 1, 1) + 3 * n + n_consists + N_SIG
+
+
+@njit(cache=True, inline="always")
+def _track_peaks(force, peaks, nc):
+    for j in range(nc):
+        f = force[j]
+        if f > peaks[j, 0]:
+            peaks[j, 0] = f
+        if f < peaks[j, 1]:
+            peaks[j, 1] = f
+
+
+@njit(cache=True, inline="always")
+def _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts, imeth, fmeth,
+                amax, dmax):
+    vref = _interp(prof_t, prof_y, t, hints, n + 1)
+    u = pid_step(vref - y[n + ref], ctrl, kp, ki, kd, nf, ts, imeth, fmeth)
+    ctrl[C_ADEM] = min(max(u, -dmax), amax)
+    ctrl[C_VREF] = vref
 
 
 @njit(cache=True, _nrt=False)
 def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
-        veh, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y,
-        out_x, out_v, out_a, out_d, out_f, out_s, work, hints):
+        veh, cons, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac, drv, prof_t,
+        prof_y, events, out_x, out_v, out_a, out_d, out_f, out_s, out_b, out_p, out_c, peaks,
+        work, hints):
     """Advance ``y`` from step ``k_start`` to ``k_stop`` (time ``k dt``), recording.
 
     Records the state at every step that is a multiple of ``record_every`` (record
     ``k // record_every``) and, when ``k_stop == n_steps``, the final state.
-    ``y`` and ``ctrl`` are updated in place so a run can be split into chunks.
+    ``y``, ``ctrl`` (controller state, see ``C_*``) and ``events`` (brake commands,
+    ``(time s, level)`` rows) are updated in place so a run can be split into chunks;
+    ``peaks[j] = (largest, smallest)`` force of coupler j over every step so far, N.
 
     ``work`` is a float array of :func:`work_size` elements and ``hints`` an int64 array
-    of ``n + 2`` zeros (search cursors), both owned by the caller.
+    of ``n + 2 + consists`` zeros (search cursors), both owned by the caller.
 
-    Returns ``(status, k)``: ``OK`` and ``k_stop``, or ``NONFINITE`` and the step whose
-    result was not finite (``y`` then holds that state).
+    Returns ``(status, k)``: ``OK`` and ``k_stop``; ``NONFINITE`` and the step whose
+    result was not finite (``y`` then holds that state); ``EVENTS_FULL`` and the step.
     """
     n = veh.shape[0]
     ny = y.shape[0]
     ns = B.shape[0]
     nc = max(n - 1, 1)
+    nk = cons.shape[0]
     # Work arrays are views into ``work`` (see work_size). The kernel is compiled
     # without NRT, so views and array arguments cost no reference counting in the loop.
     K = work[0:ns * ny]  # stage s occupies K[s * ny:(s + 1) * ny]
     o = ns * ny
     ytmp = work[o:o + ny]
-    o += ny
+    o += 2 * ny
     force = work[o:o + nc]
     o += nc
     defl = work[o:o + nc]
@@ -252,7 +573,11 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
     o += n
     inv_m = work[o:o + n]
     o += n
-    sig = work[o:o + 3]
+    bforce = work[o:o + n]
+    o += n
+    fcons = work[o:o + nk]
+    o += nk
+    sig = work[o:o + N_SIG]
     for i in range(n):
         inv_m[i] = 1.0 / veh[i, V_MASS]
     speed_mode = drv[D_MODE] == MODE_SPEED
@@ -261,23 +586,31 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
     kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
     imeth, fmeth = int(drv[D_INT]), int(drv[D_FILT])
     amax, dmax = trac[T_AMAX], trac[T_DMAX]
+    braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
     # counters instead of k % every: integer division is slow in the loop
     c_ctrl = k_start % every
     c_rec = k_start % record_every
     for k in range(k_start, k_stop):
         t = k * dt
-        if speed_mode and c_ctrl == 0:
-            vref = _interp(prof_t, prof_y, t, hints, n + 1)
-            u = pid_step(vref - y[n + ref], ctrl, kp, ki, kd, nf, ts, imeth, fmeth)
-            ctrl[2] = min(max(u, -dmax), amax)
-            ctrl[3] = vref
-        a_dem = ctrl[2]
+        sampled = speed_mode and c_ctrl == 0
+        if sampled:
+            _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts, imeth,
+                        fmeth, amax, dmax)
+        if braking:
+            if _brake_commands(t, dt, y, ctrl, events, veh, cons, drv, trac, ctab, sig,
+                               sampled) < 0:
+                return EVENTS_FULL, k
+        a_dem = ctrl[C_ADEM]
+        n_ev = int(ctrl[C_NEV])
         # stage 1 is the right-hand side at (t_k, y_k): record it when due
-        rhs(t, y, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac,
-            drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
+        rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
+            trac, drv, prof_t, prof_y, events, n_ev, K, 0, force, defl, res, bforce, fcons,
+            sig, hints)
+        _track_peaks(force, peaks, n - 1)
         if c_rec == 0:
-            _record(k // record_every, t, y, K, force, defl, sig, a_dem, speed_mode,
-                    prof_t, prof_y, hints, trac, veh, out_x, out_v, out_a, out_d, out_f, out_s)
+            _record(k // record_every, t, y, K, force, defl, bforce, fcons, sig, a_dem,
+                    ctrl[C_LEVEL], speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x,
+                    out_v, out_a, out_d, out_f, out_s, out_b, out_p, out_c)
         for s in range(1, ns):
             for q in range(ny):
                 ytmp[q] = y[q]
@@ -287,9 +620,9 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
                     o = j * ny
                     for q in range(ny):
                         ytmp[q] += w * K[o + q]
-            rhs(t + C[s] * dt, ytmp, a_dem, veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade,
-                tcurv, curve_h, trac, drv, prof_t, prof_y, K, s * ny, force, defl, res, sig,
-                hints)
+            rhs(t + C[s] * dt, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
+                tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, s * ny,
+                force, defl, res, bforce, fcons, sig, hints)
         # y += dt * sum_s b_s K_s, increment summed first for accuracy
         for q in range(ny):
             ytmp[q] = 0.0
@@ -312,16 +645,198 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
             c_rec = 0
     if k_stop == n_steps:
         t = k_stop * dt
-        rhs(t, y, ctrl[2], veh, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac,
-            drv, prof_t, prof_y, K, 0, force, defl, res, sig, hints)
-        _record(k_stop // record_every, t, y, K, force, defl, sig, ctrl[2], speed_mode,
-                prof_t, prof_y, hints, trac, veh, out_x, out_v, out_a, out_d, out_f, out_s)
+        rhs(t, y, ctrl[C_ADEM], veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
+            curve_h, trac, drv, prof_t, prof_y, events, int(ctrl[C_NEV]), K, 0, force, defl,
+            res, bforce, fcons, sig, hints)
+        _track_peaks(force, peaks, n - 1)
+        _record(k_stop // record_every, t, y, K, force, defl, bforce, fcons, sig, ctrl[C_ADEM],
+                ctrl[C_LEVEL],
+                speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x, out_v, out_a, out_d,
+                out_f, out_s, out_b, out_p, out_c)
     return OK, k_stop
 
 
+#: Bogacki-Shampine 3(2): third-order weights and the error weights (3rd - 2nd order)
+_BS_B = (2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0)
+_BS_E = (-5.0 / 72.0, 1.0 / 12.0, 1.0 / 9.0, -1.0 / 8.0)
+
+
+@njit(cache=True, _nrt=False)
+def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, rtol,
+                 veh, cons, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac, drv,
+                 prof_t, prof_y, events, out_x, out_v, out_a, out_d, out_f, out_s, out_b,
+                 out_p, out_c, peaks, work, hints):
+    """Advance ``y`` with the embedded Bogacki-Shampine 3(2) pair under error control,
+    from record ``r_start`` (time ``r_start * out_dt``) to record ``r_stop``.
+
+    Every step keeps the error estimate ``|y3 - y2|`` within ``atol + rtol |y|``
+    element by element (max norm); steps end exactly on record times, controller
+    samples and scheduled brake commands. ``astate = [step size s, accepted steps,
+    rejected steps, time of the current state s, last accepted error, last step
+    rejected (0/1)]`` carries over between calls. Records
+    ``r_start`` (when it is 0) to ``r_stop - 1``, and ``n_rec - 1`` when ``r_stop``
+    reaches ``n_rec``.
+
+    Returns ``(status, t)``: ``OK``; ``NONFINITE`` when no step size down to 1e-12 s
+    gives a finite state (``y`` holds the last good state at ``t``); ``EVENTS_FULL``.
+    """
+    n = veh.shape[0]
+    ny = y.shape[0]
+    nc = max(n - 1, 1)
+    nk = cons.shape[0]
+    K = work[0:4 * ny]
+    o = 4 * ny
+    ytmp = work[o:o + ny]
+    o += ny
+    ynew = work[o:o + ny]
+    o += ny
+    force = work[o:o + nc]
+    o += nc
+    defl = work[o:o + nc]
+    o += nc
+    res = work[o:o + n]
+    o += n
+    inv_m = work[o:o + n]
+    o += n
+    bforce = work[o:o + n]
+    o += n
+    fcons = work[o:o + nk]
+    o += nk
+    sig = work[o:o + N_SIG]
+    for i in range(n):
+        inv_m[i] = 1.0 / veh[i, V_MASS]
+    speed_mode = drv[D_MODE] == MODE_SPEED
+    ref = int(trac[T_REF])
+    kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
+    imeth, fmeth = int(drv[D_INT]), int(drv[D_FILT])
+    amax, dmax = trac[T_AMAX], trac[T_DMAX]
+    braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
+    m_sched = int(drv[D_BSLEN])
+    o_sched = int(drv[D_BSOFF])
+    h = astate[0]
+    t = astate[3]
+    r = r_start
+    t_last = (n_rec - 1) * out_dt
+    t_stop = min(r_stop, n_rec - 1) * out_dt
+    eps = 1e-9 * out_dt
+    fresh = True  # K[0:ny] must be (re)computed at (t, y)
+    while True:
+        # ---- driver: controller sample, brake commands (at the start of the step)
+        sampled = False
+        if speed_mode:
+            m = ctrl[C_NEXT_SAMPLE]
+            if t >= m * ts - eps:
+                _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts,
+                            imeth, fmeth, amax, dmax)
+                ctrl[C_NEXT_SAMPLE] = m + 1.0
+                sampled = True
+                fresh = True
+        if braking:
+            issued = _brake_commands(t, eps, y, ctrl, events, veh, cons, drv, trac, ctab, sig,
+                                     sampled)
+            if issued < 0:
+                astate[0], astate[3] = h, t
+                return EVENTS_FULL, t
+            if issued > 0:
+                fresh = True
+        a_dem = ctrl[C_ADEM]
+        n_ev = int(ctrl[C_NEV])
+        if fresh:
+            rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
+                curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 0, force, defl, res,
+                bforce, fcons, sig, hints)
+            _track_peaks(force, peaks, n - 1)
+            fresh = False
+        # ---- record when on a record time
+        if r < n_rec and abs(t - r * out_dt) <= eps:
+            if r < r_stop or r == n_rec - 1:
+                _record(r, t, y, K, force, defl, bforce, fcons, sig, a_dem, ctrl[C_LEVEL],
+                        speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x, out_v,
+                        out_a, out_d, out_f, out_s, out_b, out_p, out_c)
+            r += 1
+        if t >= t_stop - eps or t >= t_last - eps:
+            break
+        # ---- the next step ends no later than the next record, sample or command
+        t_next = r * out_dt
+        if speed_mode:
+            t_next = min(t_next, ctrl[C_NEXT_SAMPLE] * ts)
+        k = int(ctrl[C_NEXT_SCHED])
+        if k < m_sched:
+            t_next = min(t_next, ctab[o_sched + k])
+        hit = False
+        h_try = min(h, h_max)
+        if t + h_try >= t_next - eps:
+            h_try = t_next - t
+            hit = True
+        # ---- one Bogacki-Shampine step
+        for q in range(ny):
+            ytmp[q] = y[q] + 0.5 * h_try * K[q]
+        rhs(t + 0.5 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
+            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, ny, force,
+            defl, res, bforce, fcons, sig, hints)
+        for q in range(ny):
+            ytmp[q] = y[q] + 0.75 * h_try * K[ny + q]
+        rhs(t + 0.75 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
+            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 2 * ny, force,
+            defl, res, bforce, fcons, sig, hints)
+        total = 0.0
+        for q in range(ny):
+            ynew[q] = y[q] + h_try * (_BS_B[0] * K[q] + _BS_B[1] * K[ny + q]
+                                      + _BS_B[2] * K[2 * ny + q])
+            total += ynew[q]
+        t_new = t_next if hit else t + h_try
+        err = np.inf
+        if total - total == 0.0:
+            rhs(t_new, ynew, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade,
+                tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 3 * ny, force,
+                defl, res, bforce, fcons, sig, hints)
+            err = 0.0
+            for q in range(ny):
+                e = h_try * (_BS_E[0] * K[q] + _BS_E[1] * K[ny + q] + _BS_E[2] * K[2 * ny + q]
+                             + _BS_E[3] * K[3 * ny + q])
+                sc = atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q]))
+                e = abs(e) / sc
+                if e > err:
+                    err = e
+            if not (err - err == 0.0):
+                err = np.inf
+        if err <= 1.0:
+            t = t_new
+            for q in range(ny):
+                y[q] = ynew[q]
+                K[q] = K[3 * ny + q]  # first same as last
+            _track_peaks(force, peaks, n - 1)
+            astate[1] += 1.0
+            # PI step-size control (Gustafsson): smoother step sequences, fewer rejections
+            if err == 0.0:
+                fac = 5.0
+            else:
+                fac = 0.9 * err ** (-0.7 / 3.0) * max(astate[4], 1e-4) ** (0.4 / 3.0)
+                fac = min(5.0, max(0.2, fac))
+            if astate[5] > 0.0:  # no growth right after a rejection
+                fac = min(fac, 1.0)
+            astate[4] = err
+            astate[5] = 0.0
+            if not hit or fac < 1.0:
+                h = h_try * fac
+            else:  # a step shortened to land on a target says little about the next one
+                h = max(h, h_try * fac)
+        else:
+            astate[2] += 1.0
+            astate[5] = 1.0
+            fac = 0.2 if err == np.inf else max(0.2, 0.9 * err ** (-1.0 / 3.0))
+            h = h_try * fac
+            if h < 1e-12:
+                astate[0], astate[3] = h, t
+                return NONFINITE, t
+    astate[0], astate[3] = h, t
+    return OK, t
+
+
 @njit(cache=True, inline="always")
-def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hints, trac, veh,
-            out_x, out_v, out_a, out_d, out_f, out_s):
+def _record(r, t, y, dy, force, defl, bforce, fcons, sig, a_dem, level, speed_mode, prof_t,
+            prof_y, hints, trac, veh, cons, out_x, out_v, out_a, out_d, out_f, out_s, out_b, out_p,
+            out_c):
     n = out_x.shape[1]
     for i in range(n):
         out_x[r, i] = y[i] + veh[i, V_P0]  # track position
@@ -330,9 +845,21 @@ def _record(r, t, y, dy, force, defl, sig, a_dem, speed_mode, prof_t, prof_y, hi
     for j in range(n - 1):
         out_d[r, j] = defl[j]
         out_f[r, j] = force[j]
+    if out_b.shape[1] > 0:
+        for i in range(n):
+            zb = int(veh[i, V_BZ])
+            out_b[r, i] = bforce[i] if zb >= 0 else 0.0
+            out_p[r, i] = y[zb] if zb >= 0 else 0.0
+    if out_c.shape[1] > 0:
+        for c in range(cons.shape[0]):
+            out_c[r, c] = fcons[c]
     out_s[r, S_TRACTION] = sig[0]
-    out_s[r, S_ADHESION] = adhesion_limit(sig[1], trac[T_MADH], trac[T_G])
+    adh = 0.0
+    for c in range(cons.shape[0]):
+        adh += adhesion_limit(y[n + int(cons[c, K_VEH])], cons[c, K_MADH], trac[T_G])
+    out_s[r, S_ADHESION] = adh
     out_s[r, S_DEMAND] = sig[2]
+    out_s[r, S_BRAKE] = level
     if speed_mode:
         out_s[r, S_VREF] = _interp(prof_t, prof_y, t, hints, n + 1)
         out_s[r, S_ADEM] = a_dem

@@ -11,12 +11,24 @@ from dataclasses import dataclass
 import numpy as np
 
 from ltdsim.integrators import Tableau, get_tableau
+from ltdsim.physics.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
 from ltdsim.scenario import Scenario
 
-# vehicle table columns
-V_MASS, V_WMASS, V_DA, V_DB, V_DC, V_DV0, V_SHARE, V_P0 = range(8)
-N_VCOL = 8
+# vehicle table columns: mass, weight mass, Davis, share of its consist's traction,
+# initial position; consist index (-1 unpowered); brake: state index in y (-1 unbraked),
+# full-application shoe force x 1 (N, cylinder force x rigging ratio), force per shoe at
+# full application (N), friction model, constant mu, friction table offset and length,
+# brake-pipe signal delay from the nearest control point (s)
+(V_MASS, V_WMASS, V_DA, V_DB, V_DC, V_DV0, V_SHARE, V_P0, V_CONS, V_BZ, V_BFULL, V_BSHOE,
+ V_BFRIC, V_BMU, V_BTAB, V_BNTAB, V_BDELAY) = range(17)
+N_VCOL = 17
+# locomotive consist table columns: traction curve, share of the driver's force demand,
+# lag time constant (s), force rate limit (N/s, 0 none), lag state index in y (-1 none),
+# vehicle whose speed it reads, own notch profile (offset, length in the table store;
+# length 0 = follows the driver)
+(K_FMAX, K_PMAX, K_MADH, K_SHARE, K_TAU, K_RATE, K_Z, K_VEH, K_NOFF, K_NLEN) = range(10)
+N_KCOL = 10
 # coupler models and parameter columns
 C_LINEAR, C_SIMPLIFIED, C_WEDGE, C_TABLE = 0, 1, 2, 3
 MODEL_CODES = {"linear": C_LINEAR, "simplified": C_SIMPLIFIED, "friction_wedge": C_WEDGE,
@@ -36,9 +48,21 @@ N_CCOL = 39
 N_GEAR_STATES = 3
 # traction parameter vector
 T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF = range(9)
-# driver parameter vector
-D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT, D_EVERY = range(9)
-MODE_SPEED, MODE_FORCE = 0, 1
+# driver and brake parameter vector: PID; brake schedule and position triggers (offsets
+# and lengths in the table store); controller-made applications (0/1), their level
+# step; cylinder time constants (s), standstill speed (m/s); state offset of the first
+# brake cylinder; capacity reference shoe force (N) and full shoe force (N) for the
+# controller's blending
+(D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT, D_EVERY,
+ D_BSOFF, D_BSLEN, D_BPOFF, D_BPLEN, D_BCTRL, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
+ D_BSHOEREF, D_BFULLSUM) = range(20)
+N_DRV = 20
+MODE_SPEED, MODE_FORCE, MODE_NOTCH = 0, 1, 2
+#: N/m: force states enter the bs23 error norm as force / FORCE_SCALE, so ``atol`` reads
+#: as metres of gear deflection for them too (1e-6 m -> 1 N)
+FORCE_SCALE = 1.0e6
+#: largest number of brake commands (events) one run can issue
+MAX_EVENTS = 4096
 
 
 @dataclass(frozen=True)
@@ -46,6 +70,7 @@ class Lowered:
     """A scenario as flat numeric arrays (all SI)."""
 
     veh: np.ndarray  # (n, N_VCOL)
+    cons: np.ndarray  # (consists, N_KCOL)
     cpl_model: np.ndarray  # (n-1,) int64
     cpl: np.ndarray  # (n-1, N_CCOL)
     track_pos: np.ndarray  # start of each track segment, m (grade and curve breakpoints merged)
@@ -61,23 +86,26 @@ class Lowered:
     dt: float
     n_steps: int
     record_every: int
-    y0: np.ndarray  # initial state [x (n), v (n), gear states (nz)]
+    y0: np.ndarray  # initial state [x (n), v (n), gear states, traction lags, brake cylinders]
+    atol: np.ndarray  # bs23 absolute error scale per state element
+    rtol: np.ndarray  # bs23 relative tolerance per state element (0 for positions)
+    max_step: float
+    adaptive: bool
 
     @property
     def n(self) -> int:
         return self.veh.shape[0]
 
     @property
-    def nz(self) -> int:
-        """Number of internal gear states."""
-        return self.y0.shape[0] - 2 * self.n
+    def braked(self) -> bool:
+        """True when some vehicle has an air brake."""
+        return bool((self.veh[:, V_BZ] >= 0).any())
 
 
 def lower(s: Scenario) -> Lowered:
     """Turn a scenario into kernel arrays."""
     n = s.n_vehicles
     veh = np.zeros((n, N_VCOL))
-    powered = np.array([v.powered for v in s.vehicles], dtype=bool)
     # vehicle centres: lead at 0, the rest behind it at half-length spacings
     lengths = np.array([v.length for v in s.vehicles])
     p0 = np.zeros(n)
@@ -88,14 +116,20 @@ def lower(s: Scenario) -> Lowered:
         veh[i, V_WMASS] = v.weight_mass
         veh[i, V_DA], veh[i, V_DB], veh[i, V_DC] = v.davis.a, v.davis.b, v.davis.c
         veh[i, V_DV0] = v.davis.v0
-    veh[:, V_SHARE] = powered / powered.sum()
     veh[:, V_P0] = p0
+    veh[:, V_CONS] = -1.0
+    veh[:, V_BZ] = -1.0
+    veh[:, V_BTAB] = -1.0
+    tables: list[float] = [0.0]
 
     nc = n - 1
     cpl_model = np.zeros(nc, dtype=np.int64)
     cpl = np.zeros((nc, N_CCOL))
     sign0 = {"neutral": 0.0, "stretched": 1.0, "bunched": -1.0}[s.initial.couplers]
-    tables: list[float] = [0.0]
+    # the gears' relaxation time defaults to 4 steps; an adaptive method has no fixed
+    # step, so it takes the study's 1e-4 s as the step the default refers to
+    dt_ref = 1e-4 if s.solver.adaptive else s.solver.dt
+    y0_extra: list[float] = []
     nz = 0
     for i in range(nc):
         c = s.coupler(i)
@@ -108,49 +142,135 @@ def lower(s: Scenario) -> Lowered:
         if c.model in ("friction_wedge", "table"):
             row[P_ZOFF] = nz
             nz += N_GEAR_STATES
-            row[P_RATE] = 1.0 / (c.tracking_time or 4.0 * s.solver.dt)
+            row[P_RATE] = 1.0 / (c.tracking_time or 4.0 * dt_ref)
             row[P_KLOCK] = c.k_locked
             row[P_KSOLID] = c.solid_stiffness
             row[P_F0] = released_force(c)
+            # gears start released: internal force on the loading curve at 0
+            y0_extra += [row[P_F0], 0.0, 0.0]
         if c.model == "friction_wedge":
             _lower_wedge(c, row, tables)
         elif c.model == "table":
             _lower_table(c, row, tables)
+    ny = 2 * n + nz
+    kinds = ["x"] * n + ["v"] * n + ["force", "x", "v"] * (nz // N_GEAR_STATES)
 
     track_pos, track_grade, track_curv = merge_track(s.track.gradient, s.track.curve)
+    g = s.track.gravity
+    m_total = veh[:, V_MASS].sum()
 
+    # locomotive consists
     t = s.traction
-    ref = int(np.argmax(powered))  # the lead powered vehicle measures speed
-    trac = np.array([t.max_force, t.max_power, t.adhesion_mass, t.max_accel, t.max_decel,
-                     1.0 if t.feedforward else 0.0, veh[:, V_MASS].sum(), s.track.gravity,
-                     float(ref)])
-
+    consists = s.consists()
+    cons = np.zeros((len(consists), N_KCOL))
     d = s.driver
-    drv = np.zeros(9)
+    for k, loco in enumerate(consists):
+        def pick(key, loco=loco):
+            own = getattr(loco, key)
+            return getattr(t, key) if own is None else own
+        row = cons[k]
+        row[[K_FMAX, K_PMAX, K_MADH]] = pick("max_force"), pick("max_power"), pick("adhesion_mass")
+        row[K_TAU] = pick("time_constant")
+        row[K_Z] = -1.0
+        row[K_VEH] = loco.vehicles[0]
+        if row[K_TAU] > 0.0:
+            row[K_Z] = ny
+            ny += 1
+            y0_extra.append(0.0)
+            kinds.append("force")
+        for i in loco.vehicles:
+            veh[i, V_CONS] = k
+            veh[i, V_SHARE] = 1.0 / len(loco.vehicles)
+        if loco.notch_profile is not None and k > 0:
+            prof = np.asarray(loco.notch_profile, dtype=float)
+            row[K_NOFF] = _append(tables, [*prof[:, 0], *prof[:, 1]])
+            row[K_NLEN] = len(prof)
+    followers = cons[:, K_NLEN] == 0
+    cons[followers, K_SHARE] = cons[followers, K_FMAX] / cons[followers, K_FMAX].sum()
+    # force rate: jerk limit x train mass, shared like the demand
+    for k, loco in enumerate(consists):
+        jerk = t.jerk_limit if loco.jerk_limit is None else loco.jerk_limit
+        share = cons[k, K_FMAX] / cons[:, K_FMAX].sum()
+        cons[k, K_RATE] = jerk * m_total * share
+
+    ref = int(cons[0, K_VEH])  # the lead consist's first vehicle measures speed
+    trac = np.array([cons[0, K_FMAX], cons[0, K_PMAX], cons[0, K_MADH], t.max_accel,
+                     t.max_decel, 1.0 if t.feedforward else 0.0, m_total, g, float(ref)])
+
+    drv = np.zeros(N_DRV)
     if d.mode == "speed":
         pid = d.pid
         every = pid.ts / s.solver.dt  # whole multiple, checked on load
-        drv[:] = [MODE_SPEED, pid.kp, pid.ki, pid.kd, pid.n, pid.ts, METHODS[pid.integrator],
-                  METHODS[pid.filter], round(every)]
+        drv[:D_EVERY + 1] = [MODE_SPEED, pid.kp, pid.ki, pid.kd, pid.n, pid.ts,
+                             METHODS[pid.integrator], METHODS[pid.filter], round(every)]
         prof = np.array(d.speed_profile, dtype=float).reshape(-1, 2)
-    else:
+    elif d.mode == "force":
         drv[D_MODE] = MODE_FORCE
         drv[D_EVERY] = 1
         prof = np.array(d.force_profile, dtype=float).reshape(-1, 2)
+    else:
+        drv[D_MODE] = MODE_NOTCH
+        drv[D_EVERY] = 1
+        prof = np.array(d.notch_profile, dtype=float).reshape(-1, 2)
 
-    y0 = np.zeros(2 * n + nz)
+    # air brakes
+    b = s.brake
+    control_points = [p0[int(cons[0, K_VEH])]] + [
+        p0[int(cons[k, K_VEH])] for k, loco in enumerate(consists) if k > 0 and loco.brake_control]
+    shoe_forces = []
+    for i, v in enumerate(s.vehicles):
+        if v.brake is None:
+            continue
+        vb = v.brake
+        veh[i, V_BZ] = ny
+        ny += 1
+        y0_extra.append(0.0)
+        kinds.append("fill")
+        veh[i, V_BFULL] = vb.cylinder_force * vb.rigging_ratio
+        veh[i, V_BSHOE] = veh[i, V_BFULL] / vb.shoes
+        shoe_forces.append(veh[i, V_BSHOE])
+        if vb.friction_table is not None:
+            tab = np.asarray(vb.friction_table, dtype=float)
+            veh[i, V_BFRIC] = FRICTION_TABLE
+            veh[i, V_BTAB] = _append(tables, [*tab[:, 0], *tab[:, 1]])
+            veh[i, V_BNTAB] = len(tab)
+        elif vb.friction == "karwatzki":
+            veh[i, V_BFRIC] = FRICTION_KARWATZKI
+        else:
+            veh[i, V_BFRIC] = FRICTION_CONSTANT
+            veh[i, V_BMU] = float(vb.friction)
+        if b.mode == "pneumatic":
+            veh[i, V_BDELAY] = min(abs(p0[i] - c) for c in control_points) / b.propagation_speed
+    for key, col_off, col_len in (("brake_profile", D_BSOFF, D_BSLEN),
+                                  ("brake_positions", D_BPOFF, D_BPLEN)):
+        pts = getattr(d, key)
+        if pts:
+            arr = np.asarray(pts, dtype=float)
+            drv[col_off] = _append(tables, [*arr[:, 0], *arr[:, 1]])
+            drv[col_len] = len(arr)
+    drv[D_BCTRL] = 1.0 if d.brake_controller else 0.0
+    drv[D_BSTEP] = b.level_step
+    drv[D_BTAUA], drv[D_BTAUR], drv[D_BVS] = (b.apply_time_constant, b.release_time_constant,
+                                              b.standstill_speed)
+    drv[D_BSHOEREF] = float(np.mean(shoe_forces)) if shoe_forces else 0.0
+    drv[D_BFULLSUM] = float(veh[:, V_BFULL].sum())
+
+    y0 = np.zeros(ny)
     y0[n:2 * n] = s.initial.speed if s.initial.velocities is None else s.initial.velocities
-    for i in range(nc):  # gears start released: internal force on the loading curve at 0
-        if cpl[i, P_ZOFF] >= 0:
-            y0[2 * n + int(cpl[i, P_ZOFF])] = cpl[i, P_F0]
+    y0[2 * n:] = y0_extra
+    sv = s.solver
+    scale = {"x": sv.atol, "v": sv.atol, "force": sv.atol * FORCE_SCALE, "fill": sv.atol}
+    atol = np.array([scale[k] for k in kinds])
+    rtol = np.array([0.0 if k == "x" else sv.rtol for k in kinds])
     return Lowered(
-        veh=veh, cpl_model=cpl_model, cpl=cpl,
+        veh=veh, cons=cons, cpl_model=cpl_model, cpl=cpl,
         track_pos=track_pos, track_grade=track_grade, track_curv=track_curv,
         curve_h=float(s.track.curve_h), trac=trac, drv=drv,
         prof_t=np.ascontiguousarray(prof[:, 0]), prof_y=np.ascontiguousarray(prof[:, 1]),
         ctab=np.array(tables, dtype=float),
-        tableau=get_tableau(s.solver.method), dt=float(s.solver.dt),
-        n_steps=s.solver.n_steps, record_every=s.solver.record_every, y0=y0,
+        tableau=get_tableau("ode3" if sv.adaptive else sv.method), dt=float(sv.dt),
+        n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
+        atol=atol, rtol=rtol, max_step=float(sv.max_step), adaptive=sv.adaptive,
     )
 
 

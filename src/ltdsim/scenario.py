@@ -17,7 +17,13 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import (
-    BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    create_model,
+    field_validator,
+    model_validator,
 )
 
 from ltdsim.errors import ScenarioError
@@ -52,10 +58,21 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
 class Solver(_Strict):
     """Integration settings."""
 
-    method: Literal["euler", "heun", "ode3", "rk4"] = "ode3"
-    dt: float = Field(1e-4, gt=0.0, le=1.0, description="step, s")
+    method: Literal["euler", "heun", "ode3", "rk4", "bs23"] = "ode3"
+    dt: float = Field(1e-4, gt=0.0, le=1.0,
+                      description="step (fixed-step methods) or first step (bs23), s")
     t_end: float = Field(gt=0.0, le=1e7, description="end time, s")
     output_interval: float = Field(1e-3, gt=0.0, description="recording interval, s")
+    # adaptive Bogacki-Shampine 3(2) (method = "bs23")
+    rtol: float = Field(1e-5, gt=0.0, le=0.1, description="bs23 relative tolerance, -")
+    atol: float = Field(1e-6, gt=0.0, le=1.0,
+                        description="bs23 absolute tolerance, m and m/s (forces: x 1e6 N/m)")
+    max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23 largest step, s")
+
+    @property
+    def adaptive(self) -> bool:
+        """True for an error-controlled method."""
+        return self.method == "bs23"
 
     @model_validator(mode="after")
     def _multiples(self):
@@ -91,6 +108,27 @@ class Davis(_Strict):
     v0: float = Field(0.01, ge=0.0, le=1.0, description="standstill speed, m/s")
 
 
+class VehicleBrake(_Strict):
+    """Tread brake of one vehicle: retarding force = cylinder force x rigging ratio x
+    shoe friction coefficient, scaled by the cylinder's fill (0-1)."""
+
+    cylinder_force: float = Field(gt=0.0, le=1e6,
+                                  description="piston force at full application, N")
+    rigging_ratio: float = Field(gt=0.0, le=100.0,
+                                 description="total shoe force / piston force, -")
+    shoes: int = Field(8, ge=1, le=64, description="number of shoes sharing the shoe force")
+    friction: Union[Literal["karwatzki"], Annotated[float, Field(gt=0.0, le=1.0)]] = Field(
+        "karwatzki", description="'karwatzki' (cast iron) or a constant coefficient, -")
+    friction_table: Points | None = Field(None, description="[speed m/s, mu] (replaces friction)")
+
+    @field_validator("friction_table")
+    @classmethod
+    def _mu_table(cls, v):
+        if v is None:
+            return v
+        return _check_table(v, "speeds, m/s", lambda m: 0.0 <= m <= 1.0, "in [0, 1]")
+
+
 class Vehicle(_Strict):
     """One vehicle, or ``count`` identical ones, front to rear."""
 
@@ -102,6 +140,7 @@ class Vehicle(_Strict):
     length: float = Field(gt=0.0, le=MAX_LENGTH, description="over couplers, m")
     davis: Davis = Davis()
     powered: bool = False
+    brake: VehicleBrake | None = None
 
     @property
     def weight_mass(self) -> float:
@@ -298,6 +337,62 @@ class Traction(_Strict):
     max_accel: float = Field(0.976, gt=0.0, le=10.0, description="m/s^2")
     max_decel: float = Field(0.976, gt=0.0, le=10.0, description="m/s^2")
     feedforward: bool = Field(True, description="add the train's resistance to the demand")
+    time_constant: float = Field(0.0, ge=0.0, le=60.0,
+                                 description="first-order lag of the force, s (0 = none)")
+    jerk_limit: float = Field(0.0, ge=0.0, le=100.0,
+                              description="largest rate of the force / train mass, m/s^3 "
+                                          "(0 = none)")
+
+    @model_validator(mode="after")
+    def _lag(self):
+        if self.jerk_limit > 0.0 and self.time_constant == 0.0:
+            raise ValueError("jerk_limit acts on the lagged force: give time_constant > 0")
+        return self
+
+
+def _check_notches(v):
+    if v is None:
+        return v
+    return _check_table(v, "times, s", lambda q: q == int(q) and -8 <= q <= 8,
+                        "whole notches in [-8, 8] (negative = dynamic brake)")
+
+
+class Locomotive(_Strict):
+    """A locomotive consist: powered vehicles with their own traction curve and, under
+    distributed power, their own commands and brake-control point. Keys left out take
+    the ``[traction]`` value."""
+
+    name: str = Field(min_length=1)
+    vehicles: list[Annotated[int, Field(ge=0)]] = Field(
+        min_length=1, description="indices of its powered vehicles (lead = 0)")
+    max_force: float | None = Field(None, gt=0.0, le=1e8, description="N")
+    max_power: float | None = Field(None, gt=0.0, le=1e9, description="W")
+    adhesion_mass: float | None = Field(None, gt=0.0, le=1e8, description="kg")
+    time_constant: float | None = Field(None, ge=0.0, le=60.0, description="s")
+    jerk_limit: float | None = Field(None, ge=0.0, le=100.0, description="m/s^3")
+    notch_profile: Points | None = Field(
+        None, description="[t s, notch] own commands (independent distributed power)")
+    brake_control: bool = Field(True, description="vents and charges the brake pipe (DP)")
+
+    @field_validator("notch_profile")
+    @classmethod
+    def _notch(cls, v):
+        return _check_notches(v)
+
+
+class Brake(_Strict):
+    """Train air brake: brake-pipe signal and brake-cylinder dynamics."""
+
+    mode: Literal["pneumatic", "ecp"] = Field(
+        "pneumatic", description="pneumatic: signal travels along the pipe; ecp: all at once")
+    propagation_speed: float = Field(250.0, ge=10.0, le=400.0,
+                                     description="brake-pipe signal speed, m/s")
+    apply_time_constant: float = Field(3.0, gt=0.0, le=120.0, description="s")
+    release_time_constant: float = Field(10.0, gt=0.0, le=300.0, description="s")
+    standstill_speed: float = Field(0.01, gt=0.0, le=1.0,
+                                    description="speed below which the force fades, m/s")
+    level_step: float = Field(0.1, gt=0.0, le=1.0,
+                              description="step of controller-made applications, -")
 
 
 class PID(_Strict):
@@ -313,12 +408,20 @@ class PID(_Strict):
 
 
 class Driver(_Strict):
-    mode: Literal["speed", "force"] = "speed"
+    mode: Literal["speed", "force", "notch"] = "speed"
     speed_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                                   description="[t s, v m/s]")
     pid: PID | None = None
     force_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                                   description="[t s, F N]")
+    notch_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
+                                  description="[t s, notch -8..8], held until the next point")
+    brake_profile: Points | None = Field(
+        None, description="[t s, brake level 0-1] applications at given times")
+    brake_positions: Points | None = Field(
+        None, description="[lead vehicle position m, brake level 0-1]")
+    brake_controller: bool = Field(False, description="speed mode: the controller applies "
+                                                      "the air brake beyond dynamic braking")
 
     @field_validator("speed_profile")
     @classmethod
@@ -330,11 +433,30 @@ class Driver(_Strict):
     def _forces(cls, v):
         return _check_table(v, "times, s", lambda f: abs(f) <= 1e8, "in [-1e8, 1e8] N")
 
+    @field_validator("notch_profile")
+    @classmethod
+    def _notch(cls, v):
+        return _check_notches(v)
+
+    @field_validator("brake_profile", "brake_positions")
+    @classmethod
+    def _levels(cls, v):
+        if v is None:
+            return v
+        return _check_table(v, "times or positions", lambda q: 0.0 <= q <= 1.0,
+                            "brake levels in [0, 1]")
+
     @model_validator(mode="after")
     def _pid_needed(self):
         if self.mode == "speed" and self.pid is None:
             raise ValueError("mode 'speed' needs a [driver.pid] table (kp, ki, kd, n, ts)")
+        if self.brake_controller and self.mode != "speed":
+            raise ValueError("brake_controller needs mode = 'speed'")
         return self
+
+    @property
+    def brakes_commanded(self) -> bool:
+        return bool(self.brake_profile or self.brake_positions or self.brake_controller)
 
 
 class Initial(_Strict):
@@ -382,6 +504,8 @@ class Scenario(_Strict):
     couplers: Couplers | None = None
     track: Track = Track()
     traction: Traction
+    locomotives: list[Locomotive] = []
+    brake: Brake = Brake()
     driver: Driver = Driver(mode="force")
     initial: Initial = Initial()
     phases: list[Phase] = Field(default_factory=lambda: [Phase(**p) for p in STUDY_PHASES])
@@ -409,6 +533,9 @@ class Scenario(_Strict):
         vel = self.initial.velocities
         if vel is not None and len(vel) != n:
             raise ValueError(f"initial.velocities has {len(vel)} values for {n} vehicles")
+        self._check_locomotives(n)
+        if self.driver.brakes_commanded and not any(v.brake for v in self.vehicles):
+            raise ValueError("driver: brake commands given but no vehicle has a [brake] table")
         pid = self.driver.pid
         if self.driver.mode == "speed" and pid is not None:
             ratio = pid.ts / self.solver.dt
@@ -428,6 +555,38 @@ class Scenario(_Strict):
                     text = "; ".join(m for _, m in _problems(exc))
                     raise ValueError(f"coupler {i} (default merged with overrides): {text}") from None
         return self
+
+    def _check_locomotives(self, n: int) -> None:
+        if not self.locomotives:
+            return
+        seen: dict[int, str] = {}
+        for k, loco in enumerate(self.locomotives):
+            for i in loco.vehicles:
+                where = f"locomotives.{k}.vehicles"
+                if i >= n:
+                    raise ValueError(f"{where}: vehicle {i} is out of range 0-{n - 1}")
+                if not self.vehicles[i].powered:
+                    raise ValueError(f"{where}: vehicle {i} ({self.vehicles[i].name!r}) "
+                                     "is not powered")
+                if i in seen:
+                    raise ValueError(f"{where}: vehicle {i} is already in {seen[i]!r}")
+                seen[i] = loco.name
+            tau = loco.time_constant if loco.time_constant is not None else \
+                self.traction.time_constant
+            jerk = loco.jerk_limit if loco.jerk_limit is not None else self.traction.jerk_limit
+            if jerk > 0.0 and tau == 0.0:
+                raise ValueError(f"locomotives.{k}: jerk_limit needs time_constant > 0")
+        missing = [i for i, v in enumerate(self.vehicles) if v.powered and i not in seen]
+        if missing:
+            raise ValueError(f"locomotives: powered vehicles {missing} belong to no locomotive")
+
+    def consists(self) -> list[Locomotive]:
+        """The locomotive consists, lead first; without ``[[locomotives]]`` one consist of
+        every powered vehicle with the ``[traction]`` curve."""
+        if self.locomotives:
+            return list(self.locomotives)
+        return [Locomotive(name="lead", vehicles=[i for i, v in enumerate(self.vehicles)
+                                                  if v.powered])]
 
     # ------------------------------------------------------------------ helpers
     @property

@@ -11,7 +11,7 @@ import xarray as xr
 
 from ltdsim import kernel
 from ltdsim.errors import SimulationError
-from ltdsim.lowering import P_D0, T_REF, V_P0, Lowered, lower
+from ltdsim.lowering import MAX_EVENTS, P_D0, T_REF, V_P0, Lowered, lower
 from ltdsim.scenario import Scenario
 
 #: Units of every variable in the result dataset.
@@ -30,6 +30,12 @@ UNITS = {
     "adhesion_limit": "N",
     "demanded_acceleration": "m/s^2",
     "traction_demand": "N",
+    "max_coupler_force": "N",
+    "min_coupler_force": "N",
+    "brake_command": "1",
+    "brake_force": "N",
+    "brake_cylinder": "1",
+    "locomotive_force": "N",
 }
 
 DESCRIPTIONS = {
@@ -48,6 +54,12 @@ DESCRIPTIONS = {
     "demanded_acceleration": "speed controller output after the acceleration limits",
     "traction_demand": "force demanded of the powered vehicles before the traction curve "
                        "(adhesion, force, power) limits it",
+    "max_coupler_force": "largest coupler force over every step of the run (+ tension)",
+    "min_coupler_force": "smallest coupler force over every step of the run (- compression)",
+    "brake_command": "brake level last commanded at the brake-control points (0-1)",
+    "brake_force": "air-brake retarding force, + opposing forward motion",
+    "brake_cylinder": "brake-cylinder fill: 0 released, 1 full application",
+    "locomotive_force": "traction (+) or dynamic-brake (-) force of each locomotive consist",
 }
 
 ProgressFn = Callable[[float, float], None]
@@ -98,46 +110,81 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
     which only makes numba compile or load the kernel for these argument types)."""
     n = low.n
     nc = max(n - 1, 0)
-    n_rec = 1 if compile_only else low.n_steps // low.record_every + 1
+    nk = low.cons.shape[0]
+    n_rec_total = low.n_steps // low.record_every + 1
+    n_rec = 1 if compile_only else n_rec_total
+    nb = n if low.braked else 0
     rec = {
         "x": np.empty((n_rec, n)), "v": np.empty((n_rec, n)), "a": np.empty((n_rec, n)),
         "d": np.empty((n_rec, nc)), "f": np.empty((n_rec, nc)),
         "s": np.empty((n_rec, kernel.N_SCALARS)),
+        "b": np.zeros((n_rec, nb)), "p": np.zeros((n_rec, nb)),
+        "c": np.zeros((n_rec, nk if nk > 1 else 0)),
+        "peaks": np.tile([-np.inf, np.inf], (nc, 1)),
+        "events": np.zeros((MAX_EVENTS, 2)),
     }
     y = low.y0.copy()
     ctrl = np.zeros(kernel.N_CTRL)
-    tab = low.tableau
-    work = np.zeros(kernel.work_size(n, y.shape[0], tab.stages))
-    hints = np.zeros(n + 2, dtype=np.int64)
-    # chunk boundaries on whole output intervals
-    per = max(1, (n_rec - 1) // max(chunks, 1)) * low.record_every
+    stages = 4 if low.adaptive else low.tableau.stages
+    work = np.zeros(kernel.work_size(n, y.shape[0], stages, nk))
+    hints = np.zeros(n + 2 + nk, dtype=np.int64)
+    common = (low.veh, low.cons, low.cpl_model, low.cpl, low.ctab, low.track_pos,
+              low.track_grade, low.track_curv, low.curve_h, low.trac, low.drv, low.prof_t,
+              low.prof_y, rec["events"], rec["x"], rec["v"], rec["a"], rec["d"], rec["f"],
+              rec["s"], rec["b"], rec["p"], rec["c"], rec["peaks"], work, hints)
+    out_dt = low.record_every * low.dt
+    t_end = low.n_steps * low.dt
+    per_rec = max(1, (n_rec_total - 1) // max(chunks, 1))
+    # bs23 carry-over: step size, accepted and rejected steps, time, last error, rejected
+    astate = np.array([low.dt, 0.0, 0.0, 0.0, 1.0, 0.0])
+    r = 0
     k = 0
     while True:
-        k_stop = 0 if compile_only else min(k + per, low.n_steps)
-        status, k_end = kernel.run(
-            y, ctrl, k, k_stop, low.n_steps, low.record_every, low.dt, tab.A, tab.b, tab.c,
-            low.veh, low.cpl_model, low.cpl, low.ctab, low.track_pos, low.track_grade, low.track_curv,
-            low.curve_h, low.trac, low.drv, low.prof_t, low.prof_y,
-            rec["x"], rec["v"], rec["a"], rec["d"], rec["f"], rec["s"], work, hints)
+        if low.adaptive:
+            r_stop = 0 if compile_only else min(r + per_rec, n_rec_total)
+            status, t_at = kernel.run_adaptive(
+                y, ctrl, astate, r, r_stop, n_rec, out_dt, low.max_step, low.atol, low.rtol,
+                *common)
+            r = r_stop
+            done = r >= n_rec_total
+            t_done = min(r, n_rec_total - 1) * out_dt
+        else:
+            k_stop = 0 if compile_only else min(k + per_rec * low.record_every, low.n_steps)
+            status, k_end = kernel.run(
+                y, ctrl, k, k_stop, low.n_steps, low.record_every, low.dt, low.tableau.A,
+                low.tableau.b, low.tableau.c, *common)
+            t_at = k_end * low.dt
+            k = k_stop
+            done = k >= low.n_steps
+            t_done = k * low.dt
         if compile_only:
             return rec
+        if status == kernel.EVENTS_FULL:
+            raise SimulationError(
+                f"more than {MAX_EVENTS} brake commands by t = {t_at:.6g} s; raise "
+                "brake.level_step or give fewer commands", time=t_at)
         if status != kernel.OK:
-            raise _nonfinite_error(scenario, low, y, k_end)
-        k = k_stop
+            raise _nonfinite_error(scenario, low, y, t_at)
         if progress is not None:
-            progress(k * low.dt, low.n_steps * low.dt)
-        if k >= low.n_steps:
+            progress(t_done, t_end)
+        if done:
             break
+    rec["n_events"] = int(ctrl[kernel.C_NEV])
+    rec["steps"] = (int(astate[1]), int(astate[2])) if low.adaptive else (low.n_steps, 0)
     return rec
 
 
-def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, k: int) -> SimulationError:
+def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) -> SimulationError:
     n = low.n
-    t = k * low.dt
     x, v = y[:n], y[n:2 * n]
     bad = np.flatnonzero(~(np.isfinite(x) & np.isfinite(v)))
     i = int(bad[0]) if bad.size else None
-    parts = [f"simulation state became non-finite at t = {t:.6g} s (step {k})"]
+    if low.adaptive:
+        parts = [f"bs23 found no finite step beyond t = {t:.6g} s (step size fell below "
+                 "1e-12 s)"]
+    else:
+        parts = [f"simulation state became non-finite at t = {t:.6g} s "
+                 f"(step {round(t / low.dt)})"]
     if i is not None:
         parts.append(f"vehicle {i} ({scenario.vehicles[i].name!r}): displacement = {x[i]:.6g} m, "
                      f"velocity = {v[i]:.6g} m/s")
@@ -148,7 +195,8 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, k: int) ->
         if badc.size:
             j = int(badc[0])
             parts.append(f"coupler {j} (vehicles {j}-{j + 1}): deflection = {d[j]:.6g} m")
-    parts.append("hint: reduce solver.dt, or check stiffness and damping against the masses")
+    parts.append("hint: reduce solver.dt (or bs23 tolerances), or check stiffness and damping "
+                 "against the masses")
     return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
 
 
@@ -185,6 +233,16 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "vehicle_name": ("vehicle", [v.name for v in scenario.vehicles]),
         "coupler": ("coupler", np.arange(n - 1)),
     }
+    nc = n - 1
+    data["max_coupler_force"] = ("coupler", rec["peaks"][:, 0] if nc else np.zeros(0))
+    data["min_coupler_force"] = ("coupler", rec["peaks"][:, 1] if nc else np.zeros(0))
+    if rec["b"].shape[1]:
+        data["brake_command"] = ("time", s[:, kernel.S_BRAKE])
+        data["brake_force"] = (vdims, rec["b"])
+        data["brake_cylinder"] = (vdims, rec["p"])
+    if rec["c"].shape[1]:
+        data["locomotive_force"] = (("time", "locomotive"), rec["c"])
+        coords["locomotive"] = ("locomotive", [c.name for c in scenario.consists()])
     ds = xr.Dataset(data, coords=coords)
     for name, unit in UNITS.items():
         if name in ds:
@@ -202,7 +260,9 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "case": scenario.case or "",
         "solver_method": scenario.solver.method,
         "solver_dt_s": scenario.solver.dt,
-        "steps": low.n_steps,
+        "steps": rec["steps"][0],
+        "rejected_steps": rec["steps"][1],
+        "brake_commands": rec["n_events"],
         "wall_time_s": wall,
         "compile_time_s": compile_time,
         "scenario_json": json.dumps(scenario.to_dict()),

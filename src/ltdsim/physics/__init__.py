@@ -4,6 +4,7 @@ Every law is a numba ufunc: called from Python it broadcasts over numpy arrays, 
 from the compiled kernel it is inlined for scalars. All quantities are SI (m, s, kg, N, W).
 """
 
+from ltdsim.physics.brakes import brake_retardation, karwatzki
 from ltdsim.physics.control import pid_init, pid_step
 from ltdsim.physics.couplers import coupler_linear, coupler_simplified
 from ltdsim.physics.resistance import curve_resistance, davis_resistance, grade_resistance
@@ -11,11 +12,13 @@ from ltdsim.physics.traction import adhesion_limit, traction_limit
 
 __all__ = [
     "adhesion_limit",
+    "brake_retardation",
     "coupler_linear",
     "coupler_simplified",
     "curve_resistance",
     "davis_resistance",
     "grade_resistance",
+    "karwatzki",
     "pid_init",
     "pid_step",
     "traction_limit",

@@ -1,0 +1,45 @@
+"""The adaptive Bogacki-Shampine 3(2) integrator against references."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.testing import assert_allclose
+
+import ltdsim
+
+from conftest import build, smooth_chain
+
+
+def _final_state(ds):
+    return np.concatenate([ds.position.values[-1] - ds.position.values[0], ds.velocity.values[-1]])
+
+
+def _bs23(tol, t_end=2.0, output_interval=None):
+    d = smooth_chain("bs23", 1e-3, t_end=t_end)
+    d["solver"].update(rtol=tol, atol=tol, max_step=1.0,
+                       output_interval=output_interval or t_end)
+    return ltdsim.simulate(build(d))
+
+
+def test_bs23_error_follows_its_tolerance_and_its_order(chain_reference):
+    errors, steps = [], []
+    for tol in (1e-5, 1e-7, 1e-9):
+        ds = _bs23(tol)
+        errors.append(np.max(np.abs(_final_state(ds) - chain_reference)))
+        steps.append(ds.attrs["steps"])
+    # tighter tolerance, smaller error; at 1e-9 it agrees with DOP853 to 1e-6 relative
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] <= 1e-6 * np.max(np.abs(chain_reference))
+    # a third-order local error: 100x tighter tolerance costs about 100^(1/3) = 4.6x steps
+    ratios = np.array(steps[1:]) / np.array(steps[:-1])
+    assert np.all((ratios > 3.0) & (ratios < 7.0)), steps
+
+
+def test_bs23_lands_on_every_output_time_and_agrees_with_ode3():
+    ds = _bs23(1e-9, t_end=1.0, output_interval=0.01)
+    ref = ltdsim.simulate(build(smooth_chain("ode3", 1e-4, t_end=1.0)
+                                | {"solver": {"method": "ode3", "dt": 1e-4, "t_end": 1.0,
+                                              "output_interval": 0.01}}))
+    assert_allclose(ds.time.values, ref.time.values, rtol=0, atol=1e-12)
+    scale = np.abs(ref.coupler_force.values).max()
+    assert np.abs(ds.coupler_force.values - ref.coupler_force.values).max() < 1e-6 * scale
