@@ -153,15 +153,19 @@ def test_first_order_traction_lag_and_jerk_limit():
     assert_allclose(ds.traction_force.values, fr, atol=1e-4 * f)
 
 
-@pytest.mark.parametrize("notch", [8, 5, -3])
-def test_notch_demands_that_fraction_of_the_traction_curve(notch):
+@pytest.mark.parametrize("notch,fade", [(8, 0.0), (5, 0.0), (-3, 0.0), (-8, 3.0)])
+def test_notch_demands_that_fraction_of_the_traction_curve(notch, fade):
     d = train_dict([1.2e5, 9e4, 9e4], dt=1e-3, t_end=40.0, output_interval=0.05, speed=5.0)
-    d["traction"] = {"max_force": 3e5, "max_power": 2.5e6, "adhesion_mass": 9e4}
+    d["traction"] = {"max_force": 3e5, "max_power": 2.5e6, "adhesion_mass": 9e4,
+                     "dynamic_brake_fade": fade}
     d["driver"] = {"mode": "notch", "notch_profile": [[0.0, float(notch)]]}
     ds = ltdsim.simulate(build(d))
     v = ds.velocity.values[:, 0]
     lim = traction_limit(v, 3e5, 2.5e6, 9e4, 9.81)
-    assert_allclose(ds.traction_force.values, notch / 8.0 * lim, rtol=1e-12)
+    if fade:  # the dynamic brake dies away linearly below the fade speed
+        lim = lim * np.clip(v / fade, 0.0, 1.0)
+        assert v[-1] < 0.5 * fade
+    assert_allclose(ds.traction_force.values, notch / 8.0 * lim, rtol=1e-12, atol=1e-9)
     assert np.ptp(lim) > 0.1 * lim.max()  # the curve's limits did act over the run
 
 

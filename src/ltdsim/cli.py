@@ -86,7 +86,7 @@ def run(
     from ltdsim.io import save_result
     from ltdsim.scenario import load_scenario
     from ltdsim.simulate import simulate
-    from ltdsim.summary import coupler_summary, run_summary
+    from ltdsim.summary import coupler_summary, critical_rows, run_summary
 
     try:
         sc = load_scenario(file, case=case)
@@ -103,10 +103,15 @@ def run(
         _fail(exc)
         return
 
-    table = Table(title=f"Coupler forces: {label}")
+    summary = coupler_summary(ds)
+    shown = critical_rows(summary)
+    title = f"Coupler forces: {label}"
+    if len(shown) < len(summary):
+        title += f" (the {len(shown)} most loaded of {len(summary)} couplers)"
+    table = Table(title=title)
     for col in ("coupler", "max tension [kN]", "at [s]", "max compression [kN]", "at [s]"):
         table.add_column(col, justify="right")
-    for j, row in coupler_summary(ds).iterrows():
+    for j, row in shown.iterrows():
         table.add_row(str(j), f"{row.max_tension_N / 1e3:.1f}", f"{row.t_max_tension_s:.2f}",
                       f"{row.max_compression_N / 1e3:.1f}", f"{row.t_max_compression_s:.2f}")
     console.print(table)
@@ -118,7 +123,10 @@ def run(
         f"{tracking}max |acceleration| {s['max_abs_acceleration_m_s2']:.3f} m/s^2; "
         f"peak traction {s['max_traction_N'] / 1e3:.1f} kN; "
         f"samples over adhesion {s['samples_over_adhesion']}; "
-        f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
+        + (f"peak air brake {s['max_air_brake_N'] / 1e3:.0f} kN; " if s["max_air_brake_N"] else "")
+        + (f"bs23 {ds.attrs['steps']:,} steps ({ds.attrs['rejected_steps']:,} rejected); "
+           if sc.solver.adaptive else "")
+        + f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
     if output is not None:
         save_result(ds, output)

@@ -39,6 +39,7 @@ from ltdsim.lowering import (
     D_MODE,
     D_N,
     D_TS,
+    K_DBFADE,
     K_FMAX,
     K_MADH,
     K_NLEN,
@@ -408,6 +409,9 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
             f = min(max(f, -lim), lim)
         else:
             f = dl
+        fade = cons[c, K_DBFADE]
+        if f < 0.0 and fade > 0.0:  # dynamic braking dies away as the motors slow
+            f *= min(max(vc / fade, 0.0), 1.0)
         fcons[c] = f
         ftot += f
     sig[0] = ftot
@@ -485,7 +489,11 @@ def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig
         want = -(ctrl[C_ADEM] * trac[T_MTOT] + trac[T_FF] * sig[3])
         for c in range(cons.shape[0]):
             vc = y[n + int(cons[c, K_VEH])]
-            want -= traction_limit(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
+            lim = traction_limit(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
+            fade = cons[c, K_DBFADE]
+            if fade > 0.0:
+                lim *= min(max(vc / fade, 0.0), 1.0)
+            want -= lim
         level = 0.0
         if want > 0.0:
             v = y[n + int(trac[T_REF])]

@@ -26,9 +26,10 @@ N_VCOL = 17
 # locomotive consist table columns: traction curve, share of the driver's force demand,
 # lag time constant (s), force rate limit (N/s, 0 none), lag state index in y (-1 none),
 # vehicle whose speed it reads, own notch profile (offset, length in the table store;
-# length 0 = follows the driver)
-(K_FMAX, K_PMAX, K_MADH, K_SHARE, K_TAU, K_RATE, K_Z, K_VEH, K_NOFF, K_NLEN) = range(10)
-N_KCOL = 10
+# length 0 = follows the driver), speed below which dynamic braking fades (m/s, 0 none)
+(K_FMAX, K_PMAX, K_MADH, K_SHARE, K_TAU, K_RATE, K_Z, K_VEH, K_NOFF, K_NLEN,
+ K_DBFADE) = range(11)
+N_KCOL = 11
 # coupler models and parameter columns
 C_LINEAR, C_SIMPLIFIED, C_WEDGE, C_TABLE = 0, 1, 2, 3
 MODEL_CODES = {"linear": C_LINEAR, "simplified": C_SIMPLIFIED, "friction_wedge": C_WEDGE,
@@ -171,6 +172,7 @@ def lower(s: Scenario) -> Lowered:
         row = cons[k]
         row[[K_FMAX, K_PMAX, K_MADH]] = pick("max_force"), pick("max_power"), pick("adhesion_mass")
         row[K_TAU] = pick("time_constant")
+        row[K_DBFADE] = t.dynamic_brake_fade
         row[K_Z] = -1.0
         row[K_VEH] = loco.vehicles[0]
         if row[K_TAU] > 0.0:

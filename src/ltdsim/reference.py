@@ -16,9 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from ltdsim.lowering import (
-    C_LINEAR, D_KD, D_KI, D_KP, D_MODE, D_N, MODE_SPEED, P_D0, P_DAMP, P_K1, P_K2, P_K3,
-    P_PRELOAD, P_SLACK, P_STIFF, P_VC, T_AMAX, T_DMAX, T_FF, T_FMAX, T_G, T_MADH, T_MTOT,
-    T_PMAX, T_REF, V_DA, V_DB, V_DC, V_DV0, V_MASS, V_P0, V_SHARE, V_WMASS, lower,
+    C_LINEAR, C_SIMPLIFIED, D_KD, D_KI, D_KP, D_MODE, D_N, K_TAU, MODE_NOTCH, MODE_SPEED, P_D0,
+    P_DAMP, P_K1, P_K2, P_K3, P_PRELOAD, P_SLACK, P_STIFF, P_VC, T_AMAX, T_DMAX, T_FF, T_FMAX,
+    T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_DA, V_DB, V_DC, V_DV0, V_MASS, V_P0, V_SHARE, V_WMASS, lower,
 )
 from ltdsim.physics import (
     coupler_linear, coupler_simplified, curve_resistance, davis_resistance, grade_resistance,
@@ -34,6 +34,15 @@ def make_rhs(scenario: Scenario):
     the PID integrator and filter states.
     """
     low = lower(scenario)
+    unsupported = [what for what, present in (
+        ("hysteretic draft gears", (low.cpl_model > C_SIMPLIFIED).any()),
+        ("air brakes", low.braked),
+        ("several locomotive consists", low.cons.shape[0] > 1),
+        ("traction lag", (low.cons[:, K_TAU] > 0).any()),
+        ("notch mode", low.drv[D_MODE] == MODE_NOTCH)) if present]
+    if unsupported:
+        raise NotImplementedError("the NumPy reference model covers linear and simplified "
+                                  "couplers with one consist only; not: " + ", ".join(unsupported))
     n = low.n
     veh, cpl, trac, drv = low.veh, low.cpl, low.trac, low.drv
     linear = low.cpl_model == C_LINEAR

@@ -342,6 +342,9 @@ class Traction(_Strict):
     jerk_limit: float = Field(0.0, ge=0.0, le=100.0,
                               description="largest rate of the force / train mass, m/s^3 "
                                           "(0 = none)")
+    dynamic_brake_fade: float = Field(
+        0.0, ge=0.0, le=30.0,
+        description="speed below which dynamic braking fades linearly to 0, m/s (0 = none)")
 
     @model_validator(mode="after")
     def _lag(self):

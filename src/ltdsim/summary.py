@@ -8,18 +8,31 @@ import xarray as xr
 
 
 def coupler_summary(ds: xr.Dataset) -> pd.DataFrame:
-    """Per coupler: largest tension and compression (N) and the times they occur (s)."""
+    """Per coupler: largest tension and compression (N) and the recorded times nearest
+    them (s). The peaks are taken over every integration step where the result tracks
+    them (``max_coupler_force``/``min_coupler_force``), else over the recorded samples."""
     f = ds.coupler_force
     t = ds.time.values
     it = f.argmax("time").values
     ic = f.argmin("time").values
+    top = ds["max_coupler_force"].values if "max_coupler_force" in ds else f.max("time").values
+    low = ds["min_coupler_force"].values if "min_coupler_force" in ds else f.min("time").values
     return pd.DataFrame({
         "coupler": ds.coupler.values,
-        "max_tension_N": np.maximum(f.max("time").values, 0.0),
+        "max_tension_N": np.maximum(top, 0.0),
         "t_max_tension_s": t[it],
-        "max_compression_N": np.maximum(-f.min("time").values, 0.0),
+        "max_compression_N": np.maximum(-low, 0.0),
         "t_max_compression_s": t[ic],
     }).set_index("coupler")
+
+
+def critical_rows(table: pd.DataFrame, limit: int = 20) -> pd.DataFrame:
+    """The whole coupler summary for short trains; for longer ones the ``limit`` couplers
+    with the largest tension or compression, in coupler order."""
+    if len(table) <= limit:
+        return table
+    worst = table[["max_tension_N", "max_compression_N"]].max(axis=1)
+    return table.loc[worst.nlargest(limit).index].sort_index()
 
 
 def run_summary(ds: xr.Dataset) -> dict[str, float]:
@@ -33,6 +46,8 @@ def run_summary(ds: xr.Dataset) -> dict[str, float]:
         "max_abs_acceleration_m_s2": float(np.abs(ds.acceleration.values).max()),
         "max_traction_N": float(ds.traction_force.max()),
         "max_brake_N": float(max(-ds.traction_force.min().item(), 0.0)),
+        "max_air_brake_N": float(ds.brake_force.sum("vehicle").max()) if "brake_force" in ds
+        else 0.0,
         "samples_over_adhesion": int((np.abs(ds.traction_force) > ds.adhesion_limit).sum()),
         "simulated_s": float(ds.time.values[-1]),
         "wall_time_s": float(ds.attrs.get("wall_time_s", float("nan"))),

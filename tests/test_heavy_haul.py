@@ -1,0 +1,54 @@
+"""The 2 + 105 + 2 + 105 heavy-haul scenario: adaptive against fixed-step integration,
+and the whole train against Newton's second law."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import ltdsim
+from ltdsim.physics import curve_resistance, davis_resistance, grade_resistance
+from ltdsim.lowering import merge_track
+
+from conftest import ROOT
+
+HEAVY = ROOT / "scenarios" / "heavy-haul.toml"
+
+
+@pytest.fixture(scope="module")
+def emergency():
+    """The emergency case (run-in under a full application from 18 m/s, 60 s) with the
+    scenario's bs23 and with fixed-step ode3 at 1e-4 s."""
+    sc = ltdsim.load_scenario(HEAVY, case="emergency")
+    return sc, ltdsim.simulate(sc), ltdsim.simulate(sc.with_overrides({"solver.method": "ode3"}))
+
+
+def test_adaptive_matches_fixed_step_on_the_train_peak_coupler_forces(emergency):
+    sc, adaptive, fixed = emergency
+    assert sc.n_vehicles == 214 and sc.solver.method == "bs23"
+    for name, pick in (("max_coupler_force", np.max), ("min_coupler_force", np.min)):
+        ref = pick(fixed[name].values)
+        assert_allclose(pick(adaptive[name].values), ref, rtol=0.02), name
+    # the run-in is a real one: MN-class forces both ways, and far fewer steps
+    assert fixed.max_coupler_force.max() > 1e6 and fixed.min_coupler_force.min() < -1e6
+    assert adaptive.attrs["steps"] + adaptive.attrs["rejected_steps"] < 0.25 * fixed.attrs["steps"]
+
+
+def test_heavy_haul_train_obeys_newton_as_a_whole(emergency):
+    # sum of m a = traction - resistances - brakes: the couplers' forces cancel
+    sc, adaptive, _ = emergency
+    m = np.array([v.mass for v in sc.vehicles])
+    wm = np.array([v.weight_mass for v in sc.vehicles])
+    dav = np.array([[v.davis.a, v.davis.b, v.davis.c, v.davis.v0] for v in sc.vehicles])
+    pos, grade, curv = merge_track(sc.track.gradient, sc.track.curve)
+    ds = adaptive
+    x, v = ds.position.values, ds.velocity.values
+    k = np.clip(np.searchsorted(pos, x, side="right") - 1, 0, None)
+    res = (davis_resistance(v, *dav.T) + grade_resistance(wm, grade[k], 9.81)
+           + curve_resistance(v, wm, curv[k], sc.track.curve_h, 9.81))
+    external = ds.traction_force.values - res.sum(axis=1) - ds.brake_force.values.sum(axis=1)
+    ma = (ds.acceleration.values * m).sum(axis=1)
+    assert_allclose(ma, external, atol=1e-6 * np.abs(external).max())
+    assert ds.brake_force.values.sum(axis=1).max() > 5e6  # the brakes carried the stop
+    assert abs(ds.velocity.values[-1]).max() < 0.05
