@@ -351,7 +351,6 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
     n = veh.shape[0]
     g = trac[T_G]
     rtot = 0.0
-    vs = drv[D_BVS]
     for i in range(n):
         v = y[n + i]
         p = veh[i, V_P0] + y[i]
@@ -362,8 +361,14 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         r += grade_resistance(wm, tgrade[kt], g)
         r += curve_resistance(v, wm, tcurv[kt], curve_h, g)
         rtot += r
-        zb = int(veh[i, V_BZ])
-        if zb >= 0:  # air brake: cylinder fill follows the command that has arrived
+        res[i] = r
+    if drv[D_BFULLSUM] > 0.0:  # air brakes: each fill follows the command that has arrived
+        vs = drv[D_BVS]
+        for i in range(n):
+            zb = int(veh[i, V_BZ])
+            if zb < 0:
+                continue
+            v = y[n + i]
             target = brake_target(t, veh[i, V_BDELAY], events, n_events)
             fill = y[zb]
             tau = drv[D_BTAUA] if target > fill else drv[D_BTAUR]
@@ -374,8 +379,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
                 fb = -brake_retardation(v, fill * veh[i, V_BFULL]
                                         * shoe_friction(i, v, shoe, veh, ctab), vs)
             bforce[i] = fb
-            r += fb
-        res[i] = r
+            res[i] += fb
     mode = drv[D_MODE]
     fd = 0.0
     if mode == MODE_SPEED:
@@ -425,10 +429,8 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         force[j] = f
         defl[j] = d
     for i in range(n):
-        f = -res[i]
-        kc = int(veh[i, V_CONS])
-        if kc >= 0:
-            f += veh[i, V_SHARE] * fcons[kc]
+        # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
+        f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
         if i < n - 1:
             f -= force[i]
         if i > 0:

@@ -16,7 +16,7 @@ from ltdsim.physics.control import METHODS
 from ltdsim.scenario import Scenario
 
 # vehicle table columns: mass, weight mass, Davis, share of its consist's traction,
-# initial position; consist index (-1 unpowered); brake: state index in y (-1 unbraked),
+# initial position; consist index (0 with share 0 when unpowered); brake: state index in y (-1 unbraked),
 # full-application shoe force x 1 (N, cylinder force x rigging ratio), force per shoe at
 # full application (N), friction model, constant mu, friction table offset and length,
 # brake-pipe signal delay from the nearest control point (s)
@@ -118,7 +118,7 @@ def lower(s: Scenario) -> Lowered:
         veh[i, V_DA], veh[i, V_DB], veh[i, V_DC] = v.davis.a, v.davis.b, v.davis.c
         veh[i, V_DV0] = v.davis.v0
     veh[:, V_P0] = p0
-    veh[:, V_CONS] = -1.0
+    veh[:, V_CONS] = 0.0  # unpowered vehicles: consist 0 with share 0
     veh[:, V_BZ] = -1.0
     veh[:, V_BTAB] = -1.0
     tables: list[float] = [0.0]
