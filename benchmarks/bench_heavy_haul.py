@@ -5,7 +5,8 @@ consists) end to end with the adaptive bs23 integrator and times it; measures th
 fixed-step ode3 kernel (dt = 1e-4 s) on windows of the same trip in the same process
 (vehicle-steps per second, median of several runs) and reports what the whole trip
 would cost at that rate. Prints a table and writes it to
-benchmarks/results/bench_heavy_haul.md and .json.
+benchmarks/results/bench_heavy_haul.md and .json, and the trip's overview figure to
+benchmarks/results/heavy_haul_trip.png.
 
 Usage: python benchmarks/bench_heavy_haul.py [--window 10] [--repeats 3] [--t-end 10800]
 """
@@ -104,6 +105,9 @@ def main(argv=None) -> dict:
     args.out.mkdir(parents=True, exist_ok=True)
     with atomic_path(args.out / "bench_heavy_haul.md") as tmp:
         tmp.write_text(text + "\n")
+    from ltdsim.plotting import save_overview
+
+    save_overview(ds, args.out / "heavy_haul_trip.png")  # the trip at a glance
     result = {"timestamp": stamp, "machine": machine, "vehicles": n, "trip_s": t_trip,
               "bs23_wall_s": wall, "bs23_steps": steps, "bs23_rejected": rejected,
               "fixed_vehicle_steps_per_s": rates, "fixed_trip_estimate_s": fixed_trip,

@@ -212,3 +212,21 @@ def test_controller_applies_air_brake_only_beyond_the_dynamic_brake():
     err = np.abs(ds.speed_error.values).max()
     err_nob = np.abs(ltdsim.simulate(build(nob)).speed_error.values).max()
     assert err < 0.25 * err_nob
+
+
+def test_anti_windup_holds_the_integrator_while_the_drive_is_saturated():
+    # a reference the power limit cannot follow for a while: without anti-windup the
+    # integrator stores the error and the speed overshoots once the train catches up
+    d = train_dict([1.2e5] + [9e4] * 4, dt=1e-3, t_end=150.0, output_interval=0.05,
+                   coupler={"model": "linear", "stiffness": 5e7, "damping": 3e5})
+    d["traction"] = {"max_force": 1.5e5, "max_power": 1.2e6, "adhesion_mass": 1.2e5}
+    d["driver"] = {"mode": "speed", "speed_profile": [[0.0, 0.0], [20.0, 15.0]],
+                   "pid": {"kp": 0.5, "ki": 0.05, "kd": 0.0, "ts": 0.01}}
+    over = {}
+    for aw in (False, True):
+        d["driver"]["pid"]["anti_windup"] = aw
+        ds = ltdsim.simulate(build(d))
+        assert np.abs(ds.traction_force.values).max() > 0.99 * 1.5e5  # it did saturate
+        over[aw] = (ds.velocity.values[:, 0] - 15.0).max()
+    assert over[False] > 1.0  # m/s: the windup overshoot
+    assert over[True] < 0.2 * over[False]

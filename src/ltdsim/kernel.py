@@ -29,6 +29,7 @@ from ltdsim.lowering import (
     D_BSTEP,
     D_BTAUA,
     D_BTAUR,
+    D_AW,
     D_BVS,
     D_EVERY,
     D_FILT,
@@ -499,7 +500,7 @@ def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig
         level = 0.0
         if want > 0.0:
             v = y[n + int(trac[T_REF])]
-            cap = drv[D_BFULLSUM] * karwatzki_or_mean(v, drv, veh, ctab)
+            cap = drv[D_BFULLSUM] * expected_shoe_friction(v, drv, veh, ctab)
             level = min(want / cap, 1.0) if cap > 0.0 else 1.0
         step = drv[D_BSTEP]
         q = min(round(level / step) * step, 1.0)
@@ -511,7 +512,7 @@ def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig
 
 
 @njit(cache=True, inline="always")
-def karwatzki_or_mean(v, drv, veh, ctab):
+def expected_shoe_friction(v, drv, veh, ctab):
     """Friction coefficient the controller expects at speed ``v`` (m/s): that of the
     first braked vehicle's shoes at the mean full shoe force."""
     for i in range(veh.shape[0]):
@@ -528,6 +529,7 @@ def work_size(n: int, ny: int, stages: int, n_consists: int = 1) -> int:
 
 @njit(cache=True, inline="always")
 def _track_peaks(force, peaks, nc):
+    """Fold the coupler forces ``force`` (N) into ``peaks[j] = (largest, smallest)``."""
     for j in range(nc):
         f = force[j]
         if f > peaks[j, 0]:
@@ -538,10 +540,22 @@ def _track_peaks(force, peaks, nc):
 
 @njit(cache=True, inline="always")
 def _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts, imeth, fmeth,
-                amax, dmax):
+                amax, dmax, anti_windup, sig):
+    """One controller sample at ``t``: the PID's demanded acceleration, clipped to the
+    acceleration limits. With ``anti_windup`` the integrator holds (conditional
+    integration) while the demand is clipped, or the traction drives are at their
+    limits (``sig``: applied and demanded force of the last evaluation), in the
+    direction the error pushes."""
     vref = _interp(prof_t, prof_y, t, hints, n + 1)
-    u = pid_step(vref - y[n + ref], ctrl, kp, ki, kd, nf, ts, imeth, fmeth)
-    ctrl[C_ADEM] = min(max(u, -dmax), amax)
+    e = vref - y[n + ref]
+    u = pid_step(e, ctrl, kp, ki, kd, nf, ts, imeth, fmeth)
+    uc = min(max(u, -dmax), amax)
+    if anti_windup:
+        clipped = (u - uc) * e > 0.0
+        saturated = abs(sig[2]) > abs(sig[0]) * (1.0 + 1e-9) and sig[2] * e > 0.0
+        if clipped or saturated:
+            ctrl[C_PI] -= ts * e
+    ctrl[C_ADEM] = uc
     ctrl[C_VREF] = vref
 
 
@@ -596,6 +610,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
     kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
     imeth, fmeth = int(drv[D_INT]), int(drv[D_FILT])
     amax, dmax = trac[T_AMAX], trac[T_DMAX]
+    aw = drv[D_AW] > 0.0
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
     # counters instead of k % every: integer division is slow in the loop
     c_ctrl = k_start % every
@@ -605,7 +620,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         sampled = speed_mode and c_ctrl == 0
         if sampled:
             _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts, imeth,
-                        fmeth, amax, dmax)
+                        fmeth, amax, dmax, aw, sig)
         if braking:
             if _brake_commands(t, dt, y, ctrl, events, veh, cons, drv, trac, ctab, sig,
                                sampled) < 0:
@@ -720,6 +735,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
     kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
     imeth, fmeth = int(drv[D_INT]), int(drv[D_FILT])
     amax, dmax = trac[T_AMAX], trac[T_DMAX]
+    aw = drv[D_AW] > 0.0
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
     m_sched = int(drv[D_BSLEN])
     o_sched = int(drv[D_BSOFF])
@@ -737,7 +753,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
             m = ctrl[C_NEXT_SAMPLE]
             if t >= m * ts - eps:
                 _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts,
-                            imeth, fmeth, amax, dmax)
+                            imeth, fmeth, amax, dmax, aw, sig)
                 ctrl[C_NEXT_SAMPLE] = m + 1.0
                 sampled = True
                 fresh = True

@@ -53,11 +53,11 @@ T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF = range(9)
 # and lengths in the table store); controller-made applications (0/1), their level
 # step; cylinder time constants (s), standstill speed (m/s); state offset of the first
 # brake cylinder; capacity reference shoe force (N) and full shoe force (N) for the
-# controller's blending
+# controller's blending; PID anti-windup (0/1)
 (D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT, D_EVERY,
  D_BSOFF, D_BSLEN, D_BPOFF, D_BPLEN, D_BCTRL, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
- D_BSHOEREF, D_BFULLSUM) = range(20)
-N_DRV = 20
+ D_BSHOEREF, D_BFULLSUM, D_AW) = range(21)
+N_DRV = 21
 MODE_SPEED, MODE_FORCE, MODE_NOTCH = 0, 1, 2
 #: N/m: force states enter the bs23 error norm as force / FORCE_SCALE, so ``atol`` reads
 #: as metres of gear deflection for them too (1e-6 m -> 1 N)
@@ -205,6 +205,7 @@ def lower(s: Scenario) -> Lowered:
         every = pid.ts / s.solver.dt  # whole multiple, checked on load
         drv[:D_EVERY + 1] = [MODE_SPEED, pid.kp, pid.ki, pid.kd, pid.n, pid.ts,
                              METHODS[pid.integrator], METHODS[pid.filter], round(every)]
+        drv[D_AW] = 1.0 if pid.anti_windup else 0.0
         prof = np.array(d.speed_profile, dtype=float).reshape(-1, 2)
     elif d.mode == "force":
         drv[D_MODE] = MODE_FORCE

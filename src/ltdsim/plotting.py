@@ -15,41 +15,74 @@ from ltdsim.io import atomic_path  # noqa: E402
 
 
 def overview_figure(ds: xr.Dataset):
-    """Speed tracking, traction against the adhesion limit, and coupler forces over time.
+    """Speed tracking, air brakes (if any), traction against the adhesion limit, and
+    coupler forces over time (one line per coupler, or for long trains a time x coupler
+    map).
 
     Returns the matplotlib ``Figure``.
     """
     t = ds.time.values
-    fig, axes = plt.subplots(4, 1, figsize=(11, 12), sharex=True, constrained_layout=True)
-    ax = axes[0]
+    tracking = bool(np.isfinite(ds.speed_error.values).any())
+    braked = "brake_force" in ds
+    panels = ["speed"] + (["error"] if tracking else []) + (["brake"] if braked else []) + [
+        "traction", "couplers"]
+    heights = [2.0 if p == "couplers" else 1.0 for p in panels]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(11, 2.6 * len(panels) + 1.5), sharex=True,
+                             constrained_layout=True, height_ratios=heights)
+    ax_of = dict(zip(panels, axes))
+    ax = ax_of["speed"]
     if np.isfinite(ds.speed_reference.values).any():
         ax.plot(t, ds.speed_reference, "k--", lw=1.2, label="reference")
     ax.plot(t, ds.velocity.isel(vehicle=0), lw=1.0, label=f"{ds.vehicle_name.values[0]} (lead)")
     ax.set_ylabel("speed [m/s]")
     ax.legend(loc="lower right")
-    ax.grid(alpha=0.3)
-    ax = axes[1]
-    ax.plot(t, ds.speed_error, lw=0.8, color="tab:red")
-    ax.set_ylabel("speed error [m/s]")
-    ax.grid(alpha=0.3)
-    ax = axes[2]
-    ax.plot(t, ds.traction_force / 1e3, lw=0.8, label="traction / dynamic brake")
-    ax.plot(t, ds.adhesion_limit / 1e3, "k:", lw=1.0, label="adhesion limit")
+    if tracking:
+        ax = ax_of["error"]
+        ax.plot(t, ds.speed_error, lw=0.8, color="tab:red")
+        ax.set_ylabel("speed error [m/s]")
+    if braked:
+        ax = ax_of["brake"]
+        ax.plot(t, ds.brake_force.sum("vehicle") / 1e3, lw=1.0, color="tab:brown",
+                label="air brake, whole train")
+        ax.set_ylabel("air brake [kN]")
+        ax2 = ax.twinx()
+        ax2.step(t, ds.brake_command, where="post", lw=0.8, color="k", alpha=0.6,
+                 label="command (right)")
+        ax2.set_ylabel("brake command [-]")
+        ax2.set_ylim(-0.05, 1.05)
+        ax.legend(loc="upper left")
+        ax2.legend(loc="upper right")
+    ax = ax_of["traction"]
+    if "locomotive_force" in ds:
+        for name in ds.locomotive.values:
+            ax.plot(t, ds.locomotive_force.sel(locomotive=name) / 1e3, lw=0.8, label=str(name))
+    else:
+        ax.plot(t, ds.traction_force / 1e3, lw=0.8, label="traction / dynamic brake")
+    ax.plot(t, ds.adhesion_limit / 1e3, "k:", lw=1.0, label="adhesion limit (all)")
     ax.plot(t, -ds.adhesion_limit / 1e3, "k:", lw=1.0)
     ax.set_ylabel("force [kN]")
     ax.legend(loc="lower right")
-    ax.grid(alpha=0.3)
-    ax = axes[3]
+    ax = ax_of["couplers"]
     nc = ds.sizes["coupler"]
-    cmap = plt.get_cmap("viridis")
-    for j in range(nc):
-        ax.plot(t, ds.coupler_force.isel(coupler=j) / 1e3, lw=0.5,
-                color=cmap(j / max(nc - 1, 1)), label=f"coupler {j}")
-    ax.set_ylabel("coupler force [kN]\n(+ tension)")
+    if nc <= 30:
+        cmap = plt.get_cmap("viridis")
+        for j in range(nc):
+            ax.plot(t, ds.coupler_force.isel(coupler=j) / 1e3, lw=0.5,
+                    color=cmap(j / max(nc - 1, 1)), label=f"coupler {j}")
+        ax.set_ylabel("coupler force [kN]\n(+ tension)")
+        if nc <= 12:
+            ax.legend(loc="upper right", ncol=min(nc, 6), fontsize=7)
+    else:  # a map reads better than hundreds of lines
+        f = ds.coupler_force.values.T / 1e3
+        lim = np.abs(f).max() or 1.0
+        mesh = ax.pcolormesh(t, ds.coupler.values, f, cmap="RdBu_r", vmin=-lim, vmax=lim,
+                             shading="auto", rasterized=True)
+        fig.colorbar(mesh, ax=ax, label="coupler force [kN] (+ tension)")
+        ax.set_ylabel("coupler (0 = behind the lead)")
+        ax.invert_yaxis()
     ax.set_xlabel("time [s]")
-    ax.grid(alpha=0.3)
-    if nc <= 12:
-        ax.legend(loc="upper right", ncol=min(nc, 6), fontsize=7)
+    for a in axes:
+        a.grid(alpha=0.3)
     title = ds.attrs.get("title", "ltdsim result")
     fig.suptitle(title)
     return fig

@@ -408,6 +408,8 @@ class PID(_Strict):
     ts: float = Field(1e-4, gt=0.0, le=10.0, description="sample time, s")
     integrator: Literal["forward_euler", "backward_euler"] = "forward_euler"
     filter: Literal["forward_euler", "backward_euler"] = "backward_euler"
+    anti_windup: bool = Field(False, description="hold the integrator while the demand is "
+                                                 "clipped or the drives are saturated")
 
 
 class Driver(_Strict):
