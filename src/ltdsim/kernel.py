@@ -337,7 +337,7 @@ def brake_target(t, delay, events, n_events):
 @njit(cache=True, inline="always")
 def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
         trac, drv, prof_t, prof_y, events, n_events, dy, off, force, defl, res, bforce, fcons,
-        sig, hints):
+        sig, hints, peaks, track):
     """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + len(y)]``.
 
     Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
@@ -347,7 +347,8 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
     traction-curve limits N, total resistance N). ``hints`` holds search cursors
     (``[0, n)`` track, ``n`` driver profile, ``n + 1`` speed profile, ``n + 2 + c`` the
     own notch profile of consist c); they change only how fast a lookup is, never its
-    result.
+    result. With ``track``, the coupler forces are also folded into ``peaks``
+    (see :func:`_track_peaks`).
     """
     n = veh.shape[0]
     g = trac[T_G]
@@ -429,6 +430,11 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         f = coupler_force(j, cpl_model[j], d, dd, y, 2 * n, dy, off + 2 * n, cpl, ctab)
         force[j] = f
         defl[j] = d
+        if track:
+            if f > peaks[j, 0]:
+                peaks[j, 0] = f
+            if f < peaks[j, 1]:
+                peaks[j, 1] = f
     for i in range(n):
         # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
         f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
@@ -630,8 +636,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         # stage 1 is the right-hand side at (t_k, y_k): record it when due
         rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
             trac, drv, prof_t, prof_y, events, n_ev, K, 0, force, defl, res, bforce, fcons,
-            sig, hints)
-        _track_peaks(force, peaks, n - 1)
+            sig, hints, peaks, True)
         if c_rec == 0:
             _record(k // record_every, t, y, K, force, defl, bforce, fcons, sig, a_dem,
                     ctrl[C_LEVEL], speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x,
@@ -647,7 +652,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
                         ytmp[q] += w * K[o + q]
             rhs(t + C[s] * dt, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
                 tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, s * ny,
-                force, defl, res, bforce, fcons, sig, hints)
+                force, defl, res, bforce, fcons, sig, hints, peaks, False)
         # y += dt * sum_s b_s K_s, increment summed first for accuracy
         for q in range(ny):
             ytmp[q] = 0.0
@@ -672,8 +677,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         t = k_stop * dt
         rhs(t, y, ctrl[C_ADEM], veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
             curve_h, trac, drv, prof_t, prof_y, events, int(ctrl[C_NEV]), K, 0, force, defl,
-            res, bforce, fcons, sig, hints)
-        _track_peaks(force, peaks, n - 1)
+            res, bforce, fcons, sig, hints, peaks, True)
         _record(k_stop // record_every, t, y, K, force, defl, bforce, fcons, sig, ctrl[C_ADEM],
                 ctrl[C_LEVEL],
                 speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x, out_v, out_a, out_d,
@@ -770,8 +774,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
         if fresh:
             rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
                 curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 0, force, defl, res,
-                bforce, fcons, sig, hints)
-            _track_peaks(force, peaks, n - 1)
+                bforce, fcons, sig, hints, peaks, True)
             fresh = False
         # ---- record when on a record time
         if r < n_rec and abs(t - r * out_dt) <= eps:
@@ -799,12 +802,12 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
             ytmp[q] = y[q] + 0.5 * h_try * K[q]
         rhs(t + 0.5 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
             tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, ny, force,
-            defl, res, bforce, fcons, sig, hints)
+            defl, res, bforce, fcons, sig, hints, peaks, False)
         for q in range(ny):
             ytmp[q] = y[q] + 0.75 * h_try * K[ny + q]
         rhs(t + 0.75 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
             tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 2 * ny, force,
-            defl, res, bforce, fcons, sig, hints)
+            defl, res, bforce, fcons, sig, hints, peaks, False)
         total = 0.0
         for q in range(ny):
             ynew[q] = y[q] + h_try * (_BS_B[0] * K[q] + _BS_B[1] * K[ny + q]
@@ -815,7 +818,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
         if total - total == 0.0:
             rhs(t_new, ynew, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade,
                 tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 3 * ny, force,
-                defl, res, bforce, fcons, sig, hints)
+                defl, res, bforce, fcons, sig, hints, peaks, False)
             err = 0.0
             for q in range(ny):
                 e = h_try * (_BS_E[0] * K[q] + _BS_E[1] * K[ny + q] + _BS_E[2] * K[2 * ny + q]
