@@ -357,6 +357,9 @@ def sweep(
             table.add_row(case, str(row.status), str(row.get("error") or "")[:60], "", "", "")
     console.print(table)
     best = sw.best_case(summary, best_by)
+    if best is None and (summary.status == "ok").any():
+        console.print(f"no case has a value for {best_by} (no speed controller?); "
+                      "choose another with --best-by")
     if best is not None:
         console.print(f"best case by {best_by}: [bold]{best}[/]")
         if figures:

@@ -388,12 +388,14 @@ CRITERIA = {
 
 
 def best_case(summary: pd.DataFrame, criterion: str = "rms_speed_error") -> str | None:
-    """Id of the best finished case by ``criterion`` (see :data:`CRITERIA`)."""
+    """Id of the best finished case by ``criterion`` (see :data:`CRITERIA`), or None when
+    no finished case has a value for it (e.g. no speed error without a speed controller)."""
     column, _ = CRITERIA[criterion]
     ok = summary[summary.status == "ok"]
     if ok.empty or column not in ok:
         return None
-    return str(ok[column].astype(float).idxmin())
+    values = ok[column].astype(float).dropna()
+    return None if values.empty else str(values.idxmin())
 
 
 def phase_norm_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
