@@ -2,8 +2,9 @@
 
 Everything here runs under numba with flat arrays only (see :mod:`ltdsim.lowering` for
 the layout). The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of
-each vehicle from its initial position (m), its speed (m/s), and three internal states
-per hysteretic draft gear (internal force N, plate displacement m, impact speed m/s; see
+each vehicle from its initial position (m), its speed (m/s), and the internal states of
+the hysteretic draft gears (internal force N; wedge gears also the plate displacement m,
+and with an S table the impact speed m/s; see
 :mod:`ltdsim.physics.draftgear`). The discrete PID is
 sampled between steps and its output held over the step (zero-order hold), as a
 digital controller is; every continuous quantity is a pure function of ``(t, y)``, so
@@ -190,16 +191,18 @@ def _interp(xs, ys, x, hints, slot):
 def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     """Force (N, + tension) of hysteretic gear ``j``; writes its state rates to ``dy``.
 
-    ``zo``/``dzo`` index the gear's three states in ``y``/``dy``: internal force F1 (N),
-    plate displacement p (m), impact speed v0 (m/s).
+    ``zo``/``dzo`` index the gear's states in ``y``/``dy``: internal force F1 (N); for a
+    wedge gear also the plate displacement p (m); with an S table also the impact speed
+    v0 (m/s).
     """
     slack = cpl[j, P_SLACK]
     h = 0.5 * slack
     rate = cpl[j, P_RATE]
-    f1 = y[zo]
-    p = y[zo + 1]
-    v0 = y[zo + 2]
     wedge = model == C_WEDGE
+    s_table = wedge and cpl[j, P_STAB] >= 0.0
+    f1 = y[zo]
+    p = y[zo + 1] if wedge else 0.0
+    v0 = y[zo + 2] if s_table else 0.0
     gap = cpl[j, P_GAP]
     delta = cpl[j, P_BACK]
     in_slack = False
@@ -223,10 +226,10 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
         # at contact. (States within 1e-12 of rest stop there: an endless exponential
         # decay ends in subnormal numbers, which are slow on every CPU.)
         dy[dzo] = rate * (cpl[j, P_F0] - f1)
-        dy[dzo + 1] = plate_rate(-gap, p, 0.0, delta, rate) if p > 1e-12 else 0.0
-        # (Only an S table reads the impact speed; without one it stays put, which costs
-        # an adaptive integrator nothing.)
-        dy[dzo + 2] = rate * (abs(dd) - v0) if wedge and cpl[j, P_STAB] >= 0.0 else 0.0
+        if wedge:
+            dy[dzo + 1] = plate_rate(-gap, p, 0.0, delta, rate) if p > 1e-12 else 0.0
+        if s_table:
+            dy[dzo + 2] = rate * (abs(dd) - v0)
         return 0.0
     v = sgn * dd  # > 0 while the gear closes
     if wedge:
@@ -258,8 +261,10 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     if f < 0.0:
         f = 0.0
     dy[dzo] = df1
-    dy[dzo + 1] = plate_rate(x - gap, p, v, delta, rate) if wedge else 0.0
-    dy[dzo + 2] = 0.0
+    if wedge:
+        dy[dzo + 1] = plate_rate(x - gap, p, v, delta, rate)
+    if s_table:
+        dy[dzo + 2] = 0.0
     return sgn * f
 
 

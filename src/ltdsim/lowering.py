@@ -45,7 +45,8 @@ MODEL_CODES = {"linear": C_LINEAR, "simplified": C_SIMPLIFIED, "friction_wedge":
  # hysteretic gears: force of the released gear at zero deflection, N
  P_F0) = range(39)
 N_CCOL = 39
-#: internal states per hysteretic gear: internal force, plate displacement, impact speed
+#: most internal states of one hysteretic gear: internal force, plate displacement
+#: (wedge gears), impact speed (wedge gears with an S table)
 N_GEAR_STATES = 3
 # traction parameter vector
 T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF = range(9)
@@ -131,6 +132,7 @@ def lower(s: Scenario) -> Lowered:
     # step, so it takes the study's 1e-4 s as the step the default refers to
     dt_ref = 1e-4 if s.solver.adaptive else s.solver.dt
     y0_extra: list[float] = []
+    kinds = ["x"] * n + ["v"] * n  # what each state is, for the bs23 error weights
     nz = 0
     for i in range(nc):
         c = s.coupler(i)
@@ -142,19 +144,25 @@ def lower(s: Scenario) -> Lowered:
         row[P_ZOFF] = -1.0
         if c.model in ("friction_wedge", "table"):
             row[P_ZOFF] = nz
-            nz += N_GEAR_STATES
             row[P_RATE] = 1.0 / (c.tracking_time or 4.0 * dt_ref)
             row[P_KLOCK] = c.k_locked
             row[P_KSOLID] = c.solid_stiffness
             row[P_F0] = released_force(c)
-            # gears start released: internal force on the loading curve at 0
-            y0_extra += [row[P_F0], 0.0, 0.0]
+            # states: internal force (starting released, on the loading curve at 0);
+            # wedge gears: plate displacement; with an S table: impact speed
+            states = [("force", row[P_F0])]
+            if c.model == "friction_wedge":
+                states.append(("x", 0.0))
+                if c.S_table is not None:
+                    states.append(("v", 0.0))
+            nz += len(states)
+            kinds += [k for k, _ in states]
+            y0_extra += [v for _, v in states]
         if c.model == "friction_wedge":
             _lower_wedge(c, row, tables)
         elif c.model == "table":
             _lower_table(c, row, tables)
     ny = 2 * n + nz
-    kinds = ["x"] * n + ["v"] * n + ["force", "x", "v"] * (nz // N_GEAR_STATES)
 
     track_pos, track_grade, track_curv = merge_track(s.track.gradient, s.track.curve)
     g = s.track.gravity
