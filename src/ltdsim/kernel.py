@@ -550,6 +550,37 @@ def _track_peaks(force, peaks, nc):
 
 
 @njit(cache=True, inline="always")
+def _work_views(work, ns, ny, n, nc, nk, veh):
+    """Split the caller's ``work`` array (see :func:`work_size`) into the kernels' work
+    arrays: ``ns`` stage derivatives (stage s at ``K[s * ny:(s + 1) * ny]``), two state
+    buffers, coupler forces and deflections, resistances, inverse masses (filled here),
+    brake forces, consist forces and the signal vector. The kernels are compiled without
+    NRT, so views cost no reference counting in the loop."""
+    K = work[0:ns * ny]
+    o = ns * ny
+    ytmp = work[o:o + ny]
+    o += ny
+    ynew = work[o:o + ny]
+    o += ny
+    force = work[o:o + nc]
+    o += nc
+    defl = work[o:o + nc]
+    o += nc
+    res = work[o:o + n]
+    o += n
+    inv_m = work[o:o + n]
+    o += n
+    bforce = work[o:o + n]
+    o += n
+    fcons = work[o:o + nk]
+    o += nk
+    sig = work[o:o + N_SIG]
+    for i in range(n):
+        inv_m[i] = 1.0 / veh[i, V_MASS]
+    return K, ytmp, ynew, force, defl, res, inv_m, bforce, fcons, sig
+
+
+@njit(cache=True, inline="always")
 def _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts, imeth, fmeth,
                 amax, dmax, anti_windup, sig):
     """One controller sample at ``t``: the PID's demanded acceleration, clipped to the
@@ -594,27 +625,8 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
     ns = B.shape[0]
     nc = max(n - 1, 1)
     nk = cons.shape[0]
-    # Work arrays are views into ``work`` (see work_size). The kernel is compiled
-    # without NRT, so views and array arguments cost no reference counting in the loop.
-    K = work[0:ns * ny]  # stage s occupies K[s * ny:(s + 1) * ny]
-    o = ns * ny
-    ytmp = work[o:o + ny]
-    o += 2 * ny
-    force = work[o:o + nc]
-    o += nc
-    defl = work[o:o + nc]
-    o += nc
-    res = work[o:o + n]
-    o += n
-    inv_m = work[o:o + n]
-    o += n
-    bforce = work[o:o + n]
-    o += n
-    fcons = work[o:o + nk]
-    o += nk
-    sig = work[o:o + N_SIG]
-    for i in range(n):
-        inv_m[i] = 1.0 / veh[i, V_MASS]
+    K, ytmp, _, force, defl, res, inv_m, bforce, fcons, sig = _work_views(
+        work, ns, ny, n, nc, nk, veh)
     speed_mode = drv[D_MODE] == MODE_SPEED
     every = int(drv[D_EVERY])
     ref = int(trac[T_REF])
@@ -718,27 +730,8 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
     ny = y.shape[0]
     nc = max(n - 1, 1)
     nk = cons.shape[0]
-    K = work[0:4 * ny]
-    o = 4 * ny
-    ytmp = work[o:o + ny]
-    o += ny
-    ynew = work[o:o + ny]
-    o += ny
-    force = work[o:o + nc]
-    o += nc
-    defl = work[o:o + nc]
-    o += nc
-    res = work[o:o + n]
-    o += n
-    inv_m = work[o:o + n]
-    o += n
-    bforce = work[o:o + n]
-    o += n
-    fcons = work[o:o + nk]
-    o += nk
-    sig = work[o:o + N_SIG]
-    for i in range(n):
-        inv_m[i] = 1.0 / veh[i, V_MASS]
+    K, ytmp, ynew, force, defl, res, inv_m, bforce, fcons, sig = _work_views(
+        work, 4, ny, n, nc, nk, veh)
     speed_mode = drv[D_MODE] == MODE_SPEED
     ref = int(trac[T_REF])
     kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
