@@ -123,6 +123,8 @@ HH = (ROOT / "scenarios" / "heavy-haul.toml").read_text()
     ("brake_controller = true", "brake_controller = true\nnotch_profile = [[0.0, 2.5]]",
      "driver.notch_profile", "whole notches in [-8, 8]"),
     ("method = \"bs23\"", "method = \"bs45\"", "solver.method", "bs23"),
+    ("name = \"lead\"\nvehicles = [0, 1]", "name = \"lead\"\nvehicles = [0, 1]\n"
+     "notch_profile = [[0.0, 4.0]]", "locomotives.0.notch_profile", "follows [driver]"),
 ])
 def test_bad_brake_traction_and_solver_keys_are_named(tmp_path, old, new, key, words):
     assert old in HH

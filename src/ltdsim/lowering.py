@@ -191,7 +191,7 @@ def lower(s: Scenario) -> Lowered:
         for i in loco.vehicles:
             veh[i, V_CONS] = k
             veh[i, V_SHARE] = 1.0 / len(loco.vehicles)
-        if loco.notch_profile is not None and k > 0:
+        if loco.notch_profile is not None:  # (never the lead: checked on load)
             prof = np.asarray(loco.notch_profile, dtype=float)
             row[K_NOFF] = _append(tables, [*prof[:, 0], *prof[:, 1]])
             row[K_NLEN] = len(prof)

@@ -564,6 +564,9 @@ class Scenario(_Strict):
     def _check_locomotives(self, n: int) -> None:
         if not self.locomotives:
             return
+        if self.locomotives[0].notch_profile is not None:
+            raise ValueError("locomotives.0.notch_profile: the lead consist follows [driver] "
+                             "(use driver.mode = 'notch' for notch control)")
         seen: dict[int, str] = {}
         for k, loco in enumerate(self.locomotives):
             for i in loco.vehicles:
