@@ -13,6 +13,7 @@ from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
@@ -92,7 +93,8 @@ def run(
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
-        label = f"{sc.name}" + (f" [{sc.case}]" if sc.case else "")
+        # (escaped: rich would read "[case]" as markup and drop it)
+        label = escape(f"{sc.name}" + (f" [{sc.case}]" if sc.case else ""))
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(),
                       TextColumn("{task.completed:.1f}/{task.total:.1f} s simulated"),
                       TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,

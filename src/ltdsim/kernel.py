@@ -438,8 +438,10 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         if track:
             if f > peaks[j, 0]:
                 peaks[j, 0] = f
+                peaks[j, 2] = t
             if f < peaks[j, 1]:
                 peaks[j, 1] = f
+                peaks[j, 3] = t
     for i in range(n):
         # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
         f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
@@ -539,14 +541,17 @@ def work_size(n: int, ny: int, stages: int, n_consists: int = 1) -> int:
 
 
 @njit(cache=True, inline="always")
-def _track_peaks(force, peaks, nc):
-    """Fold the coupler forces ``force`` (N) into ``peaks[j] = (largest, smallest)``."""
+def _track_peaks(force, peaks, nc, t):
+    """Fold the coupler forces ``force`` (N) at time ``t`` (s) into ``peaks[j] =
+    (largest N, smallest N, time of the largest s, time of the smallest s)``."""
     for j in range(nc):
         f = force[j]
         if f > peaks[j, 0]:
             peaks[j, 0] = f
+            peaks[j, 2] = t
         if f < peaks[j, 1]:
             peaks[j, 1] = f
+            peaks[j, 3] = t
 
 
 @njit(cache=True, inline="always")
@@ -612,7 +617,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
     ``k // record_every``) and, when ``k_stop == n_steps``, the final state.
     ``y``, ``ctrl`` (controller state, see ``C_*``) and ``events`` (brake commands,
     ``(time s, level)`` rows) are updated in place so a run can be split into chunks;
-    ``peaks[j] = (largest, smallest)`` force of coupler j over every step so far, N.
+    ``peaks[j] = (largest N, smallest N, their times s)`` for coupler j over every step.
 
     ``work`` is a float array of :func:`work_size` elements and ``hints`` an int64 array
     of ``n + 2 + consists`` zeros (search cursors), both owned by the caller.
@@ -832,7 +837,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
             for q in range(ny):
                 y[q] = ynew[q]
                 K[q] = K[3 * ny + q]  # first same as last
-            _track_peaks(force, peaks, n - 1)
+            _track_peaks(force, peaks, n - 1, t)
             astate[1] += 1.0
             # PI step-size control (Gustafsson): smoother step sequences, fewer rejections
             if err == 0.0:

@@ -32,6 +32,8 @@ UNITS = {
     "traction_demand": "N",
     "max_coupler_force": "N",
     "min_coupler_force": "N",
+    "time_max_coupler_force": "s",
+    "time_min_coupler_force": "s",
     "brake_command": "1",
     "brake_force": "N",
     "brake_cylinder": "1",
@@ -56,6 +58,8 @@ DESCRIPTIONS = {
                        "(adhesion, force, power) limits it",
     "max_coupler_force": "largest coupler force over every step of the run (+ tension)",
     "min_coupler_force": "smallest coupler force over every step of the run (- compression)",
+    "time_max_coupler_force": "time of max_coupler_force",
+    "time_min_coupler_force": "time of min_coupler_force",
     "brake_command": "brake level last commanded at the brake-control points (0-1)",
     "brake_force": "air-brake retarding force, + opposing forward motion",
     "brake_cylinder": "brake-cylinder fill: 0 released, 1 full application",
@@ -120,7 +124,7 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
         "s": np.empty((n_rec, kernel.N_SCALARS)),
         "b": np.zeros((n_rec, nb)), "p": np.zeros((n_rec, nb)),
         "c": np.zeros((n_rec, nk if nk > 1 else 0)),
-        "peaks": np.tile([-np.inf, np.inf], (nc, 1)),
+        "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
         "events": np.zeros((MAX_EVENTS, 2)),
     }
     y = low.y0.copy()
@@ -234,8 +238,9 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "coupler": ("coupler", np.arange(n - 1)),
     }
     nc = n - 1
-    data["max_coupler_force"] = ("coupler", rec["peaks"][:, 0] if nc else np.zeros(0))
-    data["min_coupler_force"] = ("coupler", rec["peaks"][:, 1] if nc else np.zeros(0))
+    for col, name in enumerate(("max_coupler_force", "min_coupler_force",
+                                "time_max_coupler_force", "time_min_coupler_force")):
+        data[name] = ("coupler", rec["peaks"][:, col] if nc else np.zeros(0))
     if rec["b"].shape[1]:
         data["brake_command"] = ("time", s[:, kernel.S_BRAKE])
         data["brake_force"] = (vdims, rec["b"])

@@ -8,21 +8,23 @@ import xarray as xr
 
 
 def coupler_summary(ds: xr.Dataset) -> pd.DataFrame:
-    """Per coupler: largest tension and compression (N) and the recorded times nearest
-    them (s). The peaks are taken over every integration step where the result tracks
-    them (``max_coupler_force``/``min_coupler_force``), else over the recorded samples."""
+    """Per coupler: largest tension and compression (N) and when they occur (s). The
+    peaks are taken over every integration step where the result tracks them
+    (``max_coupler_force`` etc.), else over the recorded samples."""
     f = ds.coupler_force
-    t = ds.time.values
-    it = f.argmax("time").values
-    ic = f.argmin("time").values
-    top = ds["max_coupler_force"].values if "max_coupler_force" in ds else f.max("time").values
-    low = ds["min_coupler_force"].values if "min_coupler_force" in ds else f.min("time").values
+    if "time_max_coupler_force" in ds:
+        top, low = ds.max_coupler_force.values, ds.min_coupler_force.values
+        t_top, t_low = ds.time_max_coupler_force.values, ds.time_min_coupler_force.values
+    else:  # a result written before the kernel tracked peaks
+        t = ds.time.values
+        top, low = f.max("time").values, f.min("time").values
+        t_top, t_low = t[f.argmax("time").values], t[f.argmin("time").values]
     return pd.DataFrame({
         "coupler": ds.coupler.values,
         "max_tension_N": np.maximum(top, 0.0),
-        "t_max_tension_s": t[it],
+        "t_max_tension_s": t_top,
         "max_compression_N": np.maximum(-low, 0.0),
-        "t_max_compression_s": t[ic],
+        "t_max_compression_s": t_low,
     }).set_index("coupler")
 
 
