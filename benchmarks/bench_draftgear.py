@@ -7,16 +7,13 @@ Usage: python benchmarks/bench_draftgear.py [--repeats 3]
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
-import json
-import os
-import platform
 import statistics
 import time
 from pathlib import Path
 
+from _results import publish
+
 import ltdsim
-from ltdsim.io import atomic_path
 from ltdsim.reduce import reduce_gear
 from ltdsim.scenario import CouplerParams
 
@@ -57,22 +54,11 @@ def main(argv=None) -> dict:
         results[f"reduce_{preset}_s"] = wall
         results[f"reduce_{preset}_fit"] = r.fit_percent
 
-    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
-    w = max(len(r[0]) for r in rows)
-    lines = [f"Draft-gear benchmark, {stamp} ({machine}); base scenario 270 s at dt 1e-4 "
-             f"with ode3, medians of {args.repeats} runs after a warm-up", "",
-             f"| {'quantity':<{w}} | value | ratio / note |", f"|{'-' * (w + 2)}|-------|------|"]
-    lines += [f"| {a:<{w}} | {b} | {c} |" for a, b, c in rows]
-    text = "\n".join(lines)
-    print(text)
-    args.out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(args.out / "bench_draftgear.md") as tmp:
-        tmp.write_text(text + "\n")
-    results.update({"timestamp": stamp, "machine": machine,
-                    "rows": [list(r) for r in rows]})
-    with atomic_path(args.out / "bench_draftgear.json") as tmp:
-        tmp.write_text(json.dumps(results, indent=2) + "\n")
+    results["rows"] = [list(r) for r in rows]
+    publish(args.out, "bench_draftgear",
+            f"Draft-gear benchmark, {{stamp}}; base scenario 270 s at dt 1e-4 with ode3, "
+            f"medians of {args.repeats} runs after a warm-up", rows,
+            columns=("quantity", "value", "ratio / note"), result=results)
     return results
 
 

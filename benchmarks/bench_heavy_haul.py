@@ -14,18 +14,14 @@ Usage: python benchmarks/bench_heavy_haul.py [--window 10] [--repeats 3] [--t-en
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
-import json
-import os
-import platform
 import statistics
 import time
 from pathlib import Path
 
+from _results import publish
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 import ltdsim
-from ltdsim.io import atomic_path
 
 HERE = Path(__file__).resolve().parent
 HEAVY = HERE.parent / "scenarios" / "heavy-haul.toml"
@@ -93,29 +89,18 @@ def main(argv=None) -> dict:
          f"{ds.min_coupler_force.values.min() / 1e3:.0f} kN"),
         ("brake commands issued; speed at the end", f"{ds.attrs['brake_commands']}; {v[-1]:.3f} m/s"),
     ]
-    width = max(len(r[0]) for r in rows)
-    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
-    lines = [f"Heavy-haul benchmark, {stamp} ({machine}); fixed-step rates are medians of "
-             f"{args.repeats} runs of {args.window:g} s", "",
-             f"| {'quantity':<{width}} | value |", f"|{'-' * (width + 2)}|-------|"]
-    lines += [f"| {k:<{width}} | {v_} |" for k, v_ in rows]
-    text = "\n".join(lines)
-    print(text)
-    args.out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(args.out / "bench_heavy_haul.md") as tmp:
-        tmp.write_text(text + "\n")
     from ltdsim.plotting import save_overview
 
     save_overview(ds, args.out / "heavy_haul_trip.png")  # the trip at a glance
-    result = {"timestamp": stamp, "machine": machine, "vehicles": n, "trip_s": t_trip,
+    result = {"vehicles": n, "trip_s": t_trip,
               "bs23_wall_s": wall, "bs23_steps": steps, "bs23_rejected": rejected,
               "fixed_vehicle_steps_per_s": rates, "fixed_trip_estimate_s": fixed_trip,
               "max_tension_n": float(ds.max_coupler_force.max()),
               "max_compression_n": float(ds.min_coupler_force.min()),
               "target_met": wall <= TARGET_S}
-    with atomic_path(args.out / "bench_heavy_haul.json") as tmp:
-        tmp.write_text(json.dumps(result, indent=2) + "\n")
+    publish(args.out, "bench_heavy_haul",
+            f"Heavy-haul benchmark, {{stamp}}; fixed-step rates are medians of "
+            f"{args.repeats} runs of {args.window:g} s", rows, result=result)
     return result
 
 

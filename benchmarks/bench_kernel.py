@@ -14,10 +14,6 @@ Usage: python benchmarks/bench_kernel.py [--repeats 5] [--scipy-window 2.0]
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
-import json
-import os
-import platform
 import resource
 import statistics
 import sys
@@ -26,10 +22,10 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
+from _results import publish
 from scipy.integrate import solve_ivp
 
 import ltdsim
-from ltdsim.io import atomic_path
 from ltdsim.reference import make_rhs
 
 HERE = Path(__file__).resolve().parent
@@ -119,24 +115,12 @@ def main(argv=None) -> dict:
          f"{sp_per_rhs / lt_per_rhs:.0f}x"),
         ("ratio study (Simulink, 854.7 s per case) / ltdsim", f"{STUDY_SECONDS_PER_CASE / wall:.0f}x"),
     ]
-    width = max(len(r[0]) for r in rows)
-    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
-    lines = [f"Kernel benchmark, {stamp} ({machine}); medians of {len(walls)} ltdsim runs "
-             f"after 2 warm-up runs, and of {len(sp_walls)} scipy runs", "",
-             f"| {'quantity':<{width}} | value |", f"|{'-' * (width + 2)}|-------|"]
-    lines += [f"| {k:<{width}} | {v} |" for k, v in rows]
-    text = "\n".join(lines)
-    print(text)
     print(f"process peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB",
           file=sys.stderr)
-
-    args.out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(args.out / "bench_kernel.md") as tmp:
-        tmp.write_text(text + "\n")
     result = {
-        "timestamp": stamp, "machine": machine, "vehicles": n, "steps": steps,
-        "seconds_per_case": wall, "kernel_seconds": kern, "cold_walls": cold_walls, "walls": walls, "kernels": kernels,
+        "vehicles": n, "steps": steps,
+        "seconds_per_case": wall, "kernel_seconds": kern, "cold_walls": cold_walls,
+        "walls": walls, "kernels": kernels,
         "vehicle_steps_per_s": n * steps / kern, "peak_bytes": peak, "first_call_s": warm,
         "scipy_window_s": args.scipy_window, "scipy_walls": sp_walls, "scipy_nfev": int(sol.nfev),
         "ratio_scipy": sp_per_sim_s / lt_per_sim_s,
@@ -144,8 +128,9 @@ def main(argv=None) -> dict:
         "ratio_scipy_per_rhs": sp_per_rhs / lt_per_rhs,
         "rms_speed_error_m_s": float(np.sqrt(np.mean(ds.speed_error.values ** 2))),
     }
-    with atomic_path(args.out / "bench_kernel.json") as tmp:
-        tmp.write_text(json.dumps(result, indent=2) + "\n")
+    publish(args.out, "bench_kernel",
+            f"Kernel benchmark, {{stamp}}; medians of {len(walls)} ltdsim runs after 2 "
+            f"warm-up runs, and of {len(sp_walls)} scipy runs", rows, result=result)
     return result
 
 

@@ -8,16 +8,14 @@ Usage: python benchmarks/bench_study.py
 
 from __future__ import annotations
 
-import datetime as _dt
-import os
-import platform
 import resource
 import shutil
 import tempfile
 import time
 from pathlib import Path
 
-from ltdsim.io import atomic_path
+from _results import publish
+
 from ltdsim.study import run_study
 
 HERE = Path(__file__).resolve().parent
@@ -44,16 +42,7 @@ def main() -> dict:
              ("second run, every stage cached, wall s", f"{rerun:.1f}"),
              ("peak memory of the main process, MiB",
               f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f}")]
-    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
-    w = max(len(r[0]) for r in rows)
-    lines = [f"Study benchmark, {stamp} ({machine})", "", f"| {'quantity':<{w}} | value |",
-             f"|{'-' * (w + 2)}|-------|"] + [f"| {a:<{w}} | {b} |" for a, b in rows]
-    text = "\n".join(lines)
-    print(text)
-    (HERE / "results").mkdir(parents=True, exist_ok=True)
-    with atomic_path(HERE / "results" / "bench_study.md") as f:
-        f.write_text(text + "\n")
+    publish(HERE / "results", "bench_study", "Study benchmark, {stamp}", rows)
     return {"wall_s": wall}
 
 

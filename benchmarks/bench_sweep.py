@@ -8,17 +8,15 @@ Usage: python benchmarks/bench_sweep.py
 
 from __future__ import annotations
 
-import datetime as _dt
-import json
 import os
-import platform
 import shutil
 import tempfile
 import time
 from pathlib import Path
 
+from _results import publish
+
 from ltdsim import sweep as sw
-from ltdsim.io import atomic_path
 
 HERE = Path(__file__).resolve().parent
 PAPER = HERE.parent / "scenarios" / "paper.toml"
@@ -47,21 +45,9 @@ def main() -> dict:
         ("study (Simulink), s for the same 16 cases", f"{n * STUDY_SECONDS_PER_CASE:.0f}"),
         ("ratio study / ltdsim", f"{n * STUDY_SECONDS_PER_CASE / wall:.0f}x"),
     ]
-    stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    machine = f"{platform.machine()}, {cores} cores, Python {platform.python_version()}"
-    w = max(len(r[0]) for r in rows)
-    lines = [f"Sweep benchmark, {stamp} ({machine}); the study's 16 cases, 270 s at dt 1e-4 "
-             "with ode3", "", f"| {'quantity':<{w}} | value |", f"|{'-' * (w + 2)}|-------|"]
-    lines += [f"| {a:<{w}} | {b} |" for a, b in rows]
-    text = "\n".join(lines)
-    print(text)
-    out = HERE / "results"
-    out.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out / "bench_sweep.md") as f:
-        f.write_text(text + "\n")
-    with atomic_path(out / "bench_sweep.json") as f:
-        f.write_text(json.dumps({"timestamp": stamp, "machine": machine, "wall_s": wall,
-                                 "warm_s": warm, "cases": n, "ok": ok}, indent=2) + "\n")
+    publish(HERE / "results", "bench_sweep",
+            "Sweep benchmark, {stamp}; the study's 16 cases, 270 s at dt 1e-4 with ode3", rows,
+            result={"wall_s": wall, "warm_s": warm, "cases": n, "ok": ok})
     return {"wall_s": wall}
 
 
