@@ -353,7 +353,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
     (``[0, n)`` track, ``n`` driver profile, ``n + 1`` speed profile, ``n + 2 + c`` the
     own notch profile of consist c); they change only how fast a lookup is, never its
     result. With ``track``, the coupler forces are also folded into ``peaks``
-    (see :func:`_track_peaks`).
+    (see :func:`_fold_peak`).
     """
     n = veh.shape[0]
     g = trac[T_G]
@@ -436,12 +436,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         force[j] = f
         defl[j] = d
         if track:
-            if f > peaks[j, 0]:
-                peaks[j, 0] = f
-                peaks[j, 2] = t
-            if f < peaks[j, 1]:
-                peaks[j, 1] = f
-                peaks[j, 3] = t
+            _fold_peak(peaks, j, f, t)
     for i in range(n):
         # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
         f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
@@ -541,17 +536,22 @@ def work_size(n: int, ny: int, stages: int, n_consists: int = 1) -> int:
 
 
 @njit(cache=True, inline="always")
-def _track_peaks(force, peaks, nc, t):
-    """Fold the coupler forces ``force`` (N) at time ``t`` (s) into ``peaks[j] =
+def _fold_peak(peaks, j, f, t):
+    """Fold force ``f`` (N) of coupler ``j`` at time ``t`` (s) into ``peaks[j] =
     (largest N, smallest N, time of the largest s, time of the smallest s)``."""
+    if f > peaks[j, 0]:
+        peaks[j, 0] = f
+        peaks[j, 2] = t
+    if f < peaks[j, 1]:
+        peaks[j, 1] = f
+        peaks[j, 3] = t
+
+
+@njit(cache=True, inline="always")
+def _track_peaks(force, peaks, nc, t):
+    """:func:`_fold_peak` for every coupler."""
     for j in range(nc):
-        f = force[j]
-        if f > peaks[j, 0]:
-            peaks[j, 0] = f
-            peaks[j, 2] = t
-        if f < peaks[j, 1]:
-            peaks[j, 1] = f
-            peaks[j, 3] = t
+        _fold_peak(peaks, j, force[j], t)
 
 
 @njit(cache=True, inline="always")
