@@ -16,10 +16,10 @@ from ltdsim.physics.control import METHODS
 from ltdsim.scenario import Scenario
 
 # vehicle table columns: mass, weight mass, Davis, share of its consist's traction,
-# initial position; consist index (0 with share 0 when unpowered); brake: state index in y (-1 unbraked),
-# full-application shoe force x 1 (N, cylinder force x rigging ratio), force per shoe at
-# full application (N), friction model, constant mu, friction table offset and length,
-# brake-pipe signal delay from the nearest control point (s)
+# initial position; consist index (0 with share 0 when unpowered); brake: state index in
+# y (-1 unbraked), full-application shoe force (N, cylinder force x rigging ratio), force
+# per shoe at full application (N), friction model, constant mu, friction table offset
+# and length, brake-pipe signal delay from the nearest control point (s)
 (V_MASS, V_WMASS, V_DA, V_DB, V_DC, V_DV0, V_SHARE, V_P0, V_CONS, V_BZ, V_BFULL, V_BSHOE,
  V_BFRIC, V_BMU, V_BTAB, V_BNTAB, V_BDELAY) = range(17)
 N_VCOL = 17
@@ -52,8 +52,8 @@ N_GEAR_STATES = 3
 T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF = range(9)
 # driver and brake parameter vector: PID; brake schedule and position triggers (offsets
 # and lengths in the table store); controller-made applications (0/1), their level
-# step; cylinder time constants (s), standstill speed (m/s); state offset of the first
-# brake cylinder; capacity reference shoe force (N) and full shoe force (N) for the
+# step; cylinder time constants (s), standstill speed (m/s); mean shoe force at full
+# application (N) and the train's total full shoe force (N, 0 = no brakes) for the
 # controller's blending; PID anti-windup (0/1)
 (D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT, D_EVERY,
  D_BSOFF, D_BSLEN, D_BPOFF, D_BPLEN, D_BCTRL, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
