@@ -230,3 +230,18 @@ def test_anti_windup_holds_the_integrator_while_the_drive_is_saturated():
         over[aw] = (ds.velocity.values[:, 0] - 15.0).max()
     assert over[False] > 1.0  # m/s: the windup overshoot
     assert over[True] < 0.2 * over[False]
+
+
+def test_position_trigger_applies_when_the_lead_passes():
+    # coasting at 10 m/s without resistance, the lead's centre reaches 25 m at 2.5 s;
+    # the application then travels down the pipe as from any other command
+    dt = 1e-3
+    d = braked_train(10, "pneumatic", dt=dt, t_end=4.0)
+    del d["driver"]["brake_profile"]
+    d["driver"]["brake_positions"] = [[25.0, 0.8]]
+    ds = ltdsim.simulate(build(d))
+    first = ds.time.values[np.argmax(ds.brake_cylinder.values > 0.0, axis=0)]
+    p0 = ds.position.values[0]
+    expected = 25.0 / 10.0 + (p0[0] - p0) / 250.0
+    # the trigger is checked at step starts: up to one step late, plus one to record
+    assert np.all(first >= expected - 1e-9) and np.all(first - expected <= 2 * dt + 1e-9)
