@@ -19,17 +19,25 @@ HEAVY = ROOT / "scenarios" / "heavy-haul.toml"
 @pytest.fixture(scope="module")
 def emergency():
     """The emergency case (run-in under a full application from 18 m/s, 60 s) with the
-    scenario's bs23 and with fixed-step ode3 at 1e-4 s."""
+    scenario's bs23, and with fixed-step ode3 at 1e-4 s and at 5e-5 s."""
     sc = ltdsim.load_scenario(HEAVY, case="emergency")
-    return sc, ltdsim.simulate(sc), ltdsim.simulate(sc.with_overrides({"solver.method": "ode3"}))
+    fixed = [ltdsim.simulate(sc.with_overrides({"solver.method": "ode3", "solver.dt": dt}))
+             for dt in (1e-4, 5e-5)]
+    return sc, ltdsim.simulate(sc), fixed
 
 
-def test_adaptive_matches_fixed_step_on_the_train_peak_coupler_forces(emergency):
-    sc, adaptive, fixed = emergency
+def test_adaptive_matches_fixed_step_on_the_peak_coupler_forces(emergency):
+    sc, adaptive, (fixed, half) = emergency
     assert sc.n_vehicles == 214 and sc.solver.method == "bs23"
-    for name, pick in (("max_coupler_force", np.max), ("min_coupler_force", np.min)):
-        ref = pick(fixed[name].values)
-        assert_allclose(pick(adaptive[name].values), ref, rtol=0.02), name
+    for name in ("max_coupler_force", "min_coupler_force"):
+        got, ref, ref2 = (r[name].values for r in (adaptive, fixed, half))
+        # the couplers' peak forces, over the train: within 2 %
+        assert_allclose(got.mean(), ref.mean(), rtol=0.02), name
+        # the train's extreme: within 2 % plus what halving the fixed step moves it
+        # (stick-slip gears and 213 slack gaps make the single largest peak sensitive)
+        pick = np.max if name == "max_coupler_force" else np.min
+        spread = abs(pick(ref2) - pick(ref))
+        assert abs(pick(got) - pick(ref)) <= 0.02 * abs(pick(ref)) + spread, name
     # the run-in is a real one: MN-class forces both ways, and far fewer steps
     assert fixed.max_coupler_force.max() > 1e6 and fixed.min_coupler_force.min() < -1e6
     assert adaptive.attrs["steps"] + adaptive.attrs["rejected_steps"] < 0.25 * fixed.attrs["steps"]
@@ -37,7 +45,7 @@ def test_adaptive_matches_fixed_step_on_the_train_peak_coupler_forces(emergency)
 
 def test_heavy_haul_train_obeys_newton_as_a_whole(emergency):
     # sum of m a = traction - resistances - brakes: the couplers' forces cancel
-    sc, adaptive, _ = emergency
+    sc, adaptive, _ = emergency  # (the adaptive run)
     m = np.array([v.mass for v in sc.vehicles])
     wm = np.array([v.weight_mass for v in sc.vehicles])
     dav = np.array([[v.davis.a, v.davis.b, v.davis.c, v.davis.v0] for v in sc.vehicles])
