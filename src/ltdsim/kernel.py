@@ -379,7 +379,8 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
             target = brake_target(t, veh[i, V_BDELAY], events, n_events)
             fill = y[zb]
             tau = drv[D_BTAUA] if target > fill else drv[D_BTAUR]
-            dy[off + zb] = (target - fill) / tau
+            # (settled within 1e-12: an endless decay to 0 ends in slow subnormals)
+            dy[off + zb] = (target - fill) / tau if abs(target - fill) > 1e-12 else 0.0
             fb = 0.0
             if fill > 0.0:
                 shoe = fill * veh[i, V_BSHOE]
@@ -412,7 +413,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         z = int(cons[c, K_Z])
         if z >= 0:  # motor and inverter lag, with the jerk limit on its rate
             f = y[z]
-            rate = (dl - f) / cons[c, K_TAU]
+            rate = (dl - f) / cons[c, K_TAU] if abs(dl - f) > 1e-6 else 0.0  # (as above)
             rmax = cons[c, K_RATE]
             if rmax > 0.0:
                 rate = min(max(rate, -rmax), rmax)

@@ -37,7 +37,7 @@ def karwatzki(v, shoe_force):
 @vectorize(["float64(float64, float64, float64)"], cache=True)
 def brake_retardation(v, full_force, standstill_speed):
     """Signed braking force on a vehicle, N: ``-full_force`` in the direction of motion,
-    faded linearly to zero between ``+-standstill_speed`` (m/s).
+    faded linearly to zero between ``+-standstill_speed`` (m/s); zero below 1e-12 m/s.
 
     Parameters
     ----------
@@ -48,6 +48,8 @@ def brake_retardation(v, full_force, standstill_speed):
     standstill_speed : float
         Fade speed, m/s (> 0).
     """
+    if abs(v) < 1e-12:  # at rest (no endless decay into slow subnormal speeds)
+        return 0.0
     r = v / standstill_speed
     if r > 1.0:
         r = 1.0

@@ -21,7 +21,7 @@ def davis_resistance(v, a, b, c, v0):
     motion and is zero at standstill. ``sat`` clips to [-1, 1]: below the standstill
     speed ``v0`` the constant term fades linearly to zero, the usual regularisation of
     the sign function, so that a vehicle at rest does not chatter between +a and -a.
-    ``v0 = 0`` gives the pure sign.
+    ``v0 = 0`` gives the pure sign. Below 1e-12 m/s a vehicle counts as at rest.
 
     Parameters
     ----------
@@ -37,7 +37,7 @@ def davis_resistance(v, a, b, c, v0):
         Standstill speed below which the constant term is scaled down, m/s.
     """
     s = abs(v)
-    if s == 0.0:
+    if s < 1e-12:  # at rest (and no endless decay into subnormal speeds, which are slow)
         return 0.0
     den = v0 if v0 > 1e-12 else 1.0  # never divide by ~zero, even speculatively
     if s >= v0:
