@@ -587,18 +587,19 @@ def _work_views(work, ns, ny, n, nc, nk, veh):
 
 
 @njit(cache=True, inline="always")
-def _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts, imeth, fmeth,
-                amax, dmax, anti_windup, sig):
-    """One controller sample at ``t``: the PID's demanded acceleration, clipped to the
-    acceleration limits. With ``anti_windup`` the integrator holds (conditional
-    integration) while the demand is clipped, or the traction drives are at their
-    limits (``sig``: applied and demanded force of the last evaluation), in the
-    direction the error pushes."""
+def _controller(t, y, n, ctrl, prof_t, prof_y, hints, trac, drv, sig):
+    """One controller sample at ``t`` for a train of ``n`` vehicles: the PID's demanded
+    acceleration, clipped to the acceleration limits. With anti-windup the integrator
+    holds (conditional integration) while the demand is clipped, or the traction drives
+    are at their limits (``sig``: applied and demanded force of the last evaluation), in
+    the direction the error pushes."""
+    ts = drv[D_TS]
     vref = _interp(prof_t, prof_y, t, hints, n + 1)
-    e = vref - y[n + ref]
-    u = pid_step(e, ctrl, kp, ki, kd, nf, ts, imeth, fmeth)
-    uc = min(max(u, -dmax), amax)
-    if anti_windup:
+    e = vref - y[n + int(trac[T_REF])]
+    u = pid_step(e, ctrl, drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], ts, int(drv[D_INT]),
+                 int(drv[D_FILT]))
+    uc = min(max(u, -trac[T_DMAX]), trac[T_AMAX])
+    if drv[D_AW] > 0.0:
         clipped = (u - uc) * e > 0.0
         saturated = abs(sig[2]) > abs(sig[0]) * (1.0 + 1e-9) and sig[2] * e > 0.0
         if clipped or saturated:
@@ -635,11 +636,6 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         work, ns, ny, n, nc, nk, veh)
     speed_mode = drv[D_MODE] == MODE_SPEED
     every = int(drv[D_EVERY])
-    ref = int(trac[T_REF])
-    kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
-    imeth, fmeth = int(drv[D_INT]), int(drv[D_FILT])
-    amax, dmax = trac[T_AMAX], trac[T_DMAX]
-    aw = drv[D_AW] > 0.0
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
     # counters instead of k % every: integer division is slow in the loop
     c_ctrl = k_start % every
@@ -648,8 +644,7 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         t = k * dt
         sampled = speed_mode and c_ctrl == 0
         if sampled:
-            _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts, imeth,
-                        fmeth, amax, dmax, aw, sig)
+            _controller(t, y, n, ctrl, prof_t, prof_y, hints, trac, drv, sig)
         if braking:
             if _brake_commands(t, dt, y, ctrl, events, veh, cons, drv, trac, ctab, sig,
                                sampled) < 0:
@@ -739,11 +734,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
     K, ytmp, ynew, force, defl, res, inv_m, bforce, fcons, sig = _work_views(
         work, 4, ny, n, nc, nk, veh)
     speed_mode = drv[D_MODE] == MODE_SPEED
-    ref = int(trac[T_REF])
-    kp, ki, kd, nf, ts = drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], drv[D_TS]
-    imeth, fmeth = int(drv[D_INT]), int(drv[D_FILT])
-    amax, dmax = trac[T_AMAX], trac[T_DMAX]
-    aw = drv[D_AW] > 0.0
+    ts = drv[D_TS]
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
     m_sched = int(drv[D_BSLEN])
     o_sched = int(drv[D_BSOFF])
@@ -760,8 +751,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
         if speed_mode:
             m = ctrl[C_NEXT_SAMPLE]
             if t >= m * ts - eps:
-                _controller(t, y, ctrl, prof_t, prof_y, hints, n, ref, kp, ki, kd, nf, ts,
-                            imeth, fmeth, amax, dmax, aw, sig)
+                _controller(t, y, n, ctrl, prof_t, prof_y, hints, trac, drv, sig)
                 ctrl[C_NEXT_SAMPLE] = m + 1.0
                 sampled = True
                 fresh = True
