@@ -71,6 +71,17 @@ def _fail(exc: LtdsimError) -> None:
     raise typer.Exit(2 if isinstance(exc, ScenarioError) else 3)
 
 
+
+def _table(title: str, columns, justify: str = "right") -> Table:
+    """A rich table whose title and column headers stay plain text: rich would read
+    "[kN]", "[m/s]" or a case name like "[emergency]" as markup and drop it. The first
+    column of two-column (quantity, value) tables is left-aligned."""
+    table = Table(title=escape(title))
+    for k, col in enumerate(columns):
+        align = "left" if len(columns) == 2 and k == 0 else justify
+        table.add_column(escape(col), justify=align)
+    return table
+
 @app.command()
 def run(
     file: Annotated[Path, typer.Argument(help="scenario file (TOML)")],
@@ -93,8 +104,7 @@ def run(
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
-        # (escaped: rich would read "[case]" as markup and drop it)
-        label = escape(f"{sc.name}" + (f" [{sc.case}]" if sc.case else ""))
+        label = escape(f"{sc.name}" + (f" [{sc.case}]" if sc.case else ""))  # see _table
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(),
                       TextColumn("{task.completed:.1f}/{task.total:.1f} s simulated"),
                       TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,
@@ -110,9 +120,8 @@ def run(
     title = f"Coupler forces: {label}"
     if len(shown) < len(summary):
         title += f" (the {len(shown)} most loaded of {len(summary)} couplers)"
-    table = Table(title=title)
-    for col in ("coupler", "max tension [kN]", "at [s]", "max compression [kN]", "at [s]"):
-        table.add_column(col, justify="right")
+    table = _table(title, ("coupler", "max tension [kN]", "at [s]", "max compression [kN]",
+                           "at [s]"))
     for j, row in shown.iterrows():
         table.add_row(str(j), f"{row.max_tension_N / 1e3:.1f}", f"{row.t_max_tension_s:.2f}",
                       f"{row.max_compression_N / 1e3:.1f}", f"{row.t_max_compression_s:.2f}")
@@ -225,10 +234,9 @@ def gear_impact(
         _fail(ScenarioError("--speeds", [("speeds", f"not a list of numbers: {speeds!r}")]))
         return
     rows = []
-    table = Table(title=f"Impact of two {mass / 1e3:.0f} t wagons ({params.model} gear)")
-    for col in ("speed [m/s]", "speed [km/h]", "peak force [kN]", "max deflection [mm]",
-                "energy absorbed [kJ]", "share of relative KE"):
-        table.add_column(col, justify="right")
+    table = _table(f"Impact of two {mass / 1e3:.0f} t wagons ({params.model} gear)",
+                   ("speed [m/s]", "speed [km/h]", "peak force [kN]", "max deflection [mm]",
+                    "energy absorbed [kJ]", "share of relative KE"))
     for v in values:
         r = impact(params, v, mass_moving=mass, mass_standing=mass)
         rel_ke = 0.25 * mass * v * v  # kinetic energy of the relative motion, J
@@ -277,13 +285,11 @@ def reduce(
         result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers, maxiter=maxiter,
                              seed=seed, progress=lambda g, n, c: prog.update(task, completed=g,
                                                                               cost=c))
-    table = Table(title=f"Simplified coupler fitted to {preset or scenario}")
-    table.add_column("parameter")
-    table.add_column("value", justify="right")
+    table = _table(f"Simplified coupler fitted to {preset or scenario}", ("parameter", "value"))
     units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m", "v_c": "m/s"}
     for k, v in result.parameters.items():
-        table.add_row(f"{k} [{units[k]}]", f"{v:.6g}")
-    table.add_row("fit [%]", f"{result.fit_percent:.2f}")
+        table.add_row(escape(f"{k} [{units[k]}]"), f"{v:.6g}")
+    table.add_row(escape("fit [%]"), f"{result.fit_percent:.2f}")
     table.add_row("evaluations", str(result.evaluations))
     console.print(table)
     from ltdsim.plotting import save_reduction
@@ -346,10 +352,9 @@ def sweep(
     if not norms.empty:
         with atomic_path(output / "phase_norms.csv") as tmp:
             norms.to_csv(tmp, index=False)
-    table = Table(title=f"Sweep {file} ({len(spec.cases)} cases)")
-    for col in ("case", "status", "RMS speed error [m/s]", "max tension [kN]",
-                "max compression [kN]", "max |a| [m/s^2]"):
-        table.add_column(col, justify="right")
+    table = _table(f"Sweep {file} ({len(spec.cases)} cases)",
+                   ("case", "status", "RMS speed error [m/s]", "max tension [kN]",
+                    "max compression [kN]", "max |a| [m/s^2]"))
     for case, row in summary.iterrows():
         if row.status == "ok":
             table.add_row(case, "ok", f"{row.rms_speed_error_m_s:.4f}",
@@ -409,11 +414,9 @@ def phases(
                         ("critical_couplers.csv", ranking), ("traction_check.csv", check)):
         with atomic_path(output / name) as tmp:
             frame.to_csv(tmp)
-    table = Table(title=f"Coupler force infinity-norm per phase [kN], {file}"
-                        + (f" [{case}]" if case else ""))
-    table.add_column("coupler", justify="right")
-    for ph in norms.phase.values:
-        table.add_column(str(ph), justify="right")
+    table = _table(f"Coupler force infinity-norm per phase [kN], {file}"
+                   + (f" [{case}]" if case else ""),
+                   ("coupler", *(str(ph) for ph in norms.phase.values)))
     for j in norms.coupler.values:
         table.add_row(str(j), *[f"{norms.coupler_force_infnorm.sel(phase=ph, coupler=j).item() / 1e3:.0f}"
                                 for ph in norms.phase.values])
@@ -448,10 +451,9 @@ def modal(
         _fail(exc if isinstance(exc, ScenarioError) else
               ScenarioError("--stiffness", [("stiffness", str(exc))]))
         return
-    out = Table(title=f"Modes of {file}" + (f" [{case}]" if case else "")
-                + f", {stiffness} stiffness, {series} gear(s) per coupling")
-    out.add_column("mode", justify="right")
-    out.add_column("frequency [Hz]", justify="right")
+    out = _table(f"Modes of {file}" + (f" [{case}]" if case else "")
+                 + f", {stiffness} stiffness, {series} gear(s) per coupling",
+                 ("mode", "frequency [Hz]"))
     for i, f in enumerate(table.frequency_hz):
         out.add_row(str(i), f"{f:.3f}")
     console.print(out)
@@ -492,9 +494,9 @@ def spectrum(
     output.mkdir(parents=True, exist_ok=True)
     with atomic_path(output / "phase_spectra.csv") as tmp:
         table.to_csv(tmp, index=False)
-    out = Table(title="Coupler force spectra, 0-10 Hz")
-    for col in ("phase", "coupler", "max [kN]", "at [Hz]", "band RMS [kN]", "main peaks"):
-        out.add_column(col)
+    out = _table("Coupler force spectra, 0-10 Hz",
+                 ("phase", "coupler", "max [kN]", "at [Hz]", "band RMS [kN]", "main peaks"),
+                 justify="left")
     for r in table.itertuples():
         out.add_row(r.phase, str(r.coupler), f"{r.max_N / 1e3:.1f}", f"{r.f_at_max_hz:.1f}",
                     f"{r.band_rms_N / 1e3:.1f}", r.peaks)
@@ -536,9 +538,8 @@ def sysid(
         "cost": m.cost, "norm_of_step": m.step_norm, "first_order_optimality": m.optimality,
         "step": {k: float(v) for k, v in info.items()}, "ramp_steady_state_error": ramp_error(m.tf()),
     }
-    table = Table(title=f"Identified model, Ts = {m.dt:g} s, {poles} poles, {zeros} zeros")
-    table.add_column("quantity")
-    table.add_column("value", justify="right")
+    table = _table(f"Identified model, Ts = {m.dt:g} s, {poles} poles, {zeros} zeros",
+                   ("quantity", "value"))
     for k in ("fpe", "mse", "fit_percent", "prediction_fit_percent", "function_evaluations",
               "cost", "norm_of_step", "first_order_optimality"):
         table.add_row(k, f"{result[k]:.4g}")
