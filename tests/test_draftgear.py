@@ -7,7 +7,10 @@ import pytest
 from numpy.testing import assert_allclose
 
 import ltdsim
-from ltdsim.gear import drive_deflection, impact, loop_energy
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ltdsim.gear import drive_deflection, impact, loop_energy, table_from_ratings
 from ltdsim.physics.draftgear import wedge_gear_quasistatic
 from ltdsim.reduce import reduce_gear
 from ltdsim.scenario import CouplerParams
@@ -185,3 +188,47 @@ def test_a_train_of_friction_gears_pulls_away_under_newton():
     assert_allclose(ma[moving], (ds.traction_force.values - davis)[moving], atol=1e-6 * 8.63e5)
     assert np.all(np.isfinite(ds.coupler_force.values))
     assert ds.coupler_force.max() > 5e5  # the gears do carry the train
+
+
+def close_and_release(c: CouplerParams, travel: float):
+    """One slow closing to ``travel`` and release: (peak force N, energy taken in
+    closing J, share of it absorbed over the cycle)."""
+    t = np.linspace(0.0, 20.0, 20001)
+    ds = drive_deflection(c, t, travel * 0.5 * (1 - np.cos(2 * np.pi * t / 20.0)), dt=1e-3)
+    taken = loop_energy(ds.isel(time=slice(0, len(t) // 2 + 1)))
+    return float(ds.force.max()), taken, loop_energy(ds) / taken
+
+
+# the manufacturers' published ratings (TB/T 2915 gears): force at full travel N,
+# capacity J, travel m, absorptivity
+@pytest.mark.parametrize("preset, force, capacity, travel, absorptivity", [
+    ("mt-2", 2.27e6, 50e3, 0.083, 0.80),
+    ("mt-3", 2.0e6, 45e3, 0.083, 0.80),
+])
+def test_table_presets_reproduce_their_published_ratings(preset, force, capacity, travel,
+                                                         absorptivity):
+    c = CouplerParams(preset=preset, slack=0.0)
+    assert c.travel == travel
+    peak, taken, share = close_and_release(c, travel)
+    assert_allclose(peak, force, rtol=0.01)
+    assert_allclose(taken, capacity, rtol=0.01)
+    assert_allclose(share, absorptivity, atol=0.01)
+
+
+@settings(max_examples=15, deadline=None)
+@given(travel=st.floats(0.05, 0.12), force=st.floats(5e5, 4e6), fill=st.floats(0.15, 0.6),
+       absorptivity=st.floats(0.3, 0.9), preload=st.floats(0.0, 0.1),
+       series=st.sampled_from([1, 2]))
+def test_a_table_gear_built_from_ratings_meets_them_on_the_rig(travel, force, fill,
+                                                               absorptivity, preload, series):
+    """Over a range of ratings (capacity as a share of force x travel), the gear built
+    from them closes at the rated force and takes and absorbs the rated energies; two in
+    series travel twice as far and take twice the energy at the same force."""
+    p = preload * fill * force  # below the mean force
+    capacity = fill * force * travel
+    gear = table_from_ratings(travel, force, capacity, absorptivity, preload=p, series=series)
+    c = CouplerParams(**{k: v for k, v in gear.items() if k != "exponent"})
+    peak, taken, share = close_and_release(c, series * travel)
+    assert_allclose(peak, force, rtol=0.01)
+    assert_allclose(taken, series * capacity, rtol=0.01)
+    assert_allclose(share, absorptivity, atol=0.01)

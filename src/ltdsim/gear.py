@@ -201,6 +201,142 @@ def loop_energy(ds: xr.Dataset) -> float:
     return float(np.trapezoid(ds.force.values * ds.rate.values, ds.time.values))
 
 
+def table_from_ratings(travel: float, force: float, capacity: float, absorptivity: float, *,
+                       preload: float = 0.0, points: int = 21, turn: float = 0.05,
+                       series: int = 1) -> dict:
+    """Loading and unloading tables of a gear known by its rated values only.
+
+    Manufacturers and standards (AAR M-901, TB/T 2915) rate a draft gear by its travel,
+    the force at that travel ("impedance" or reaction force), its capacity (the energy
+    taken in closing it) and its absorptivity (the share of that energy it does not
+    give back). This builds the simplest curves that reproduce all four:
+
+    * loading ``f_l(x) = P + (F - P) (x / X)^n``, the exponent ``n`` chosen so that the
+      table's area (trapezoids between its points, as the kernel interpolates) equals
+      the capacity;
+    * unloading ``f_u = (1 - a) f_l``, so a full closing and release absorbs ``a`` times
+      the capacity;
+    * ``k_locked`` such that the gear turns from loading to unloading at full travel
+      within ``turn`` of its travel, or less where the energy it gives back on that
+      line would exceed half of what it may give back at all (``turn <= a (1 - a)
+      E / (F X)``).
+
+    A connection between two wagons has a gear in each wagon's end, in series: with
+    ``series = 2`` the tables describe the pair (deflections doubled at the same
+    forces, twice the travel and the capacity).
+
+    Parameters
+    ----------
+    travel : float
+        Rated travel ``X``, m.
+    force : float
+        Force at the rated travel ``F``, N.
+    capacity : float
+        Energy to close the gear to its rated travel, J.
+    absorptivity : float
+        Share of the capacity absorbed in a closing and release ``a``, 0-1.
+    preload : float
+        Force at zero deflection ``P`` (pre-compression), N.
+    points : int
+        Table points (denser towards full travel, where the curve bends).
+    turn : float
+        Share of the travel over which the gear turns from loading to unloading.
+    series : int
+        Number of identical gears in series in the connection.
+
+    Returns
+    -------
+    dict of coupler keys: ``model``, ``loading``, ``unloading`` (``[m, N]`` pairs),
+    ``travel`` (m), ``k_locked`` (N/m) and ``exponent`` (the ``n`` found, for reports;
+    not a coupler key).
+    """
+    from scipy.optimize import brentq
+
+    mean = capacity / travel if travel > 0.0 else np.nan
+    checks = [
+        (travel > 0.0, "travel", "must be > 0 m"),
+        (force > 0.0, "force", "must be > 0 N"),
+        (0.0 <= preload < force, "preload", f"must lie in [0, force = {force:g} N)"),
+        (preload < mean < force, "capacity",
+         f"must lie between preload x travel and force x travel "
+         f"({preload * travel:g} to {force * travel:g} J)"),
+        (0.0 < absorptivity < 1.0, "absorptivity", "must lie in (0, 1)"),
+        (points >= 3, "points", "must be at least 3"),
+        (0.0 < turn <= 1.0, "turn", "must lie in (0, 1]"),
+        (series >= 1, "series", "must be at least 1"),
+    ]
+    for ok, key, why in checks:
+        if not ok:
+            raise ValueError(f"{key} {why}")
+    x = travel * np.sqrt(np.linspace(0.0, 1.0, points))
+
+    def loading(n):
+        return preload + (force - preload) * (x / travel) ** n
+
+    n = brentq(lambda n: np.trapezoid(loading(n), x) - capacity, 1e-6, 1e3, xtol=1e-12)
+    f_l = loading(n)
+    # the locked line gives back about F^2 / (2 k_locked); keep that within half of
+    # (1 - a) E so that an unloading curve can take the rest
+    turn = min(turn, absorptivity * (1.0 - absorptivity) * capacity / (force * travel))
+    k_locked = absorptivity * force / (turn * travel)
+    # the unloading curve c f_l: c such that the release, first along the locked line
+    # from full travel down to the curve and then along it, gives back (1 - a) capacity
+    c = brentq(lambda c: _release_work(x, f_l, c, k_locked) - (1.0 - absorptivity) * capacity,
+               0.0, 1.0 - 1e-9, xtol=1e-12)
+    f_u = c * f_l
+    x = series * x  # the same force deflects each gear of a series by x
+    return {
+        "model": "table",
+        "loading": [[float(a), float(b)] for a, b in zip(x, f_l)],
+        "unloading": [[float(a), float(b)] for a, b in zip(x, f_u)],
+        "travel": float(series * travel),
+        "k_locked": float(k_locked / series),
+        "exponent": float(n),
+    }
+
+
+def _release_work(x, f_l, c, k_locked, steps: int = 4000) -> float:
+    """Work (J) a table gear with loading ``f_l`` over ``x`` and unloading ``c f_l``
+    gives back when released slowly from full travel: the force first falls along the
+    locked slope ``k_locked + s_band`` (the band's slope between the curves, as the
+    kernel's hysteresis law has it) until it meets the unloading curve, then follows it
+    down to zero deflection."""
+    slope = np.diff(f_l) / np.diff(x)
+    xx = np.linspace(x[-1], 0.0, steps + 1)
+    h = xx[0] - xx[1]
+    f = f_l[-1]
+    work = 0.0
+    for k in range(steps):
+        fl = np.interp(xx[k], x, f_l)
+        fu = c * fl
+        if f <= fu:  # on the unloading curve from here on
+            tail = xx[k:][::-1]
+            return work + float(np.trapezoid(c * np.interp(tail, x, f_l), tail))
+        j = min(max(int(np.searchsorted(x, xx[k])) - 1, 0), len(slope) - 1)
+        w = (f - fu) / (fl - fu) if fl > fu else 1.0
+        s_band = slope[j] * (c + w * (1.0 - c))
+        f_next = max(f - (k_locked + s_band) * h, c * np.interp(xx[k + 1], x, f_l))
+        work += 0.5 * (f + f_next) * h
+        f = f_next
+    return work
+
+
+def table_toml(gear: dict, *, slack: float = 0.0, comment: str = "") -> str:
+    """TOML text of a ``table`` gear (from :func:`table_from_ratings`) as coupler keys,
+    usable as a ``[couplers.default]`` body or as a gear preset file; ``comment`` lines
+    go first, as TOML comments."""
+    lines = [f"# {c}".rstrip() for c in comment.splitlines()]
+    lines += ['model = "table"',
+              f"slack = {slack!r:<20} # m, coupling free play",
+              f"travel = {gear['travel']!r:<19} # m",
+              f"k_locked = {gear['k_locked']:<17.6g} # N/m"]
+    for name in ("loading", "unloading"):
+        lines.append(f"{name} = [  # [deflection m, force N]")
+        lines += [f"    [{x:.6f}, {f:.1f}]," for x, f in gear[name]]
+        lines.append("]")
+    return "\n".join(lines) + "\n"
+
+
 def impact(params: CouplerParams, speed: float, *, mass_moving: float = 90000.0,
            mass_standing: float = 90000.0, dt: float = 1e-4, method: str = "ode3",
            t_max: float = 2.0) -> dict:
