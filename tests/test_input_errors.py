@@ -137,3 +137,20 @@ def test_brake_commands_without_brakes_are_refused():
     d["driver"]["brake_profile"] = [[1.0, 0.5]]
     with pytest.raises(ScenarioError, match="no vehicle has a \\[brake\\] table"):
         build(d)
+
+
+@pytest.mark.parametrize("args, key", [
+    (["--capacity", "5e5"], "--capacity"),        # more than force x travel
+    (["--absorptivity", "1.2"], "--absorptivity"),
+])
+def test_impossible_gear_ratings_are_named(args, key):
+    base = {"--travel": "0.083", "--force": "2.27e6", "--capacity": "5e4",
+            "--absorptivity": "0.8"}
+    base.update(dict(zip(args[::2], args[1::2])))
+    cmd = [sys.executable, "-m", "ltdsim.cli", "gear", "ratings"]
+    for k, v in base.items():
+        cmd += [k, v]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr + proc.stdout
+    assert key in proc.stderr
