@@ -113,3 +113,21 @@ def test_simplified_coupler_dissipates_over_a_closed_draft_cycle(amp, freq):
     f = coupler_simplified(d, dd, 0.025, 0.0, 999.8706, 8.265776e6, 1.856364e6, 3.4748e6, 0.6)
     work = np.trapezoid(f * dd, t)
     assert work >= -1e-9 * np.max(np.abs(f)) * amp
+
+
+@settings(max_examples=300)
+@given(z=st.one_of(st.floats(0.0, 0.125), st.floats(0.0, 700.0), st.floats(-5.0, 0.0)))
+def test_fast_decay_is_the_exponential_to_the_last_bit(z):
+    """exp(-z) as the friction and stiffness fades take it: within 2 units in the last
+    place of numpy's exponential everywhere (series below 1/8, libm above)."""
+    from ltdsim.physics.decay import exp_neg_ufunc
+
+    got, ref = exp_neg_ufunc(z), np.exp(-z)
+    assert abs(got - ref) <= 2 * np.spacing(ref)
+
+
+def test_fast_decay_passes_nan_and_infinity_through():
+    from ltdsim.physics.decay import exp_neg_ufunc
+
+    got = exp_neg_ufunc(np.array([np.nan, np.inf, -np.inf]))
+    assert np.isnan(got[0]) and got[1] == 0.0 and got[2] == np.inf

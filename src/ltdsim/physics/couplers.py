@@ -13,9 +13,10 @@ separating faces together. Without slack the coupling is a continuous spring-dam
 
 from __future__ import annotations
 
-import math
 
 from numba import njit, vectorize
+
+from ltdsim.physics.decay import exp_neg
 
 
 @njit(cache=True, inline="always")
@@ -99,7 +100,7 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
     h = 0.5 * slack
     if d > h:
         e = d - h
-        f = preload + (k3 + k2 * math.exp(-abs(dd) / v_c)) * e + damping * dd
+        f = preload + (k3 + k2 * exp_neg(abs(dd) / v_c)) * e + damping * dd
     elif d < -h:
         e = d + h
         f = -preload + k1 * e + damping * dd

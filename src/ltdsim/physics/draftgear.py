@@ -43,6 +43,8 @@ import math
 
 from numba import njit, vectorize
 
+from ltdsim.physics.decay import exp_neg
+
 
 
 @njit(cache=True, inline="always")
@@ -51,7 +53,7 @@ def friction_coefficient(h1, h2, h3, v):
 
     ``h1`` kinetic part, ``h2`` static excess, ``h3`` decay, s/m; ``v`` sliding speed, m/s.
     """
-    return h1 + h2 * math.exp(-h3 * abs(v))
+    return h1 + h2 * exp_neg(h3 * abs(v))
 
 
 @njit(cache=True, inline="always")
