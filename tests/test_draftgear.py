@@ -232,3 +232,24 @@ def test_a_table_gear_built_from_ratings_meets_them_on_the_rig(travel, force, fi
     assert_allclose(peak, force, rtol=0.01)
     assert_allclose(taken, series * capacity, rtol=0.01)
     assert_allclose(share, absorptivity, atol=0.01)
+
+
+@settings(max_examples=200, deadline=None)
+@given(alpha=st.floats(20.0, 55.0), beta=st.floats(0.0, 10.0), gamma=st.floats(5.0, 25.0),
+       h1=st.floats(0.0, 0.15), h2=st.floats(0.0, 0.05), s=st.floats(0.1, 2.0),
+       x=st.floats(0.0, 0.08), plates=st.sampled_from([0.0, 1.0]),
+       loading=st.sampled_from([0.0, 1.0]))
+def test_the_library_curves_are_equation_1_over_its_geometry_and_friction(
+        alpha, beta, gamma, h1, h2, s, x, plates, loading):
+    """The compiled curves (psi's multiplied out to one division) equal Eq. 1 written
+    with tan and atan, at any unlocked geometry and friction, to 1e-9."""
+    mu = h1 + h2
+    a, g = math.radians(alpha), math.radians(gamma)
+    if math.tan(a + math.atan(mu)) * math.tan(g + math.atan(mu * s)) >= 0.95:
+        return  # a locked (self-holding) wedge: no curve to compare
+    c = CouplerParams(preset="friction-wedge-high", slack=0.0, alpha_deg=alpha, beta_deg=beta,
+                      gamma_deg=gamma, h1=h1, h2=h2, S=s, x_m0=0.01, x_r0=0.0)
+    lib = wedge_gear_quasistatic(x, loading, a, math.radians(beta), g, c.h1, c.h2, c.h3, c.S,
+                                 c.k_m, c.x_m0, c.k_r, c.x_r0, c.plate_gap, c.plate_backlash,
+                                 plates)
+    assert_allclose(lib, by_hand(x, c, bool(plates), bool(loading)), rtol=1e-9)

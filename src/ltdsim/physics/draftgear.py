@@ -127,10 +127,35 @@ def spring_forces(x, big_g, k_m, x_m0, k_r, x_r0):
 
 
 @njit(cache=True, inline="always")
+def _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates, mu4, loading):
+    """psi of one curve as ``(numerator, denominator)``: psi_1 (loading) or psi_3
+    (unloading), and with the plates engaged by ``plates`` (0-1, friction ``mu4``)
+    psi_2 / psi_4, each formula of :func:`psi_loading` ... :func:`psi_plates_unloading`
+    multiplied out over its inner denominator, so one division remains for the caller."""
+    sg = 1.0 if loading else -1.0  # + atan mu on loading, - atan mu on unloading
+    a = 1.0 - sg * mu1 * tg
+    b = tg + sg * mu1
+    c = 1.0 - sg * mu3 * tb
+    e = tb + sg * mu3
+    f = 1.0 - sg * mu2 * ta
+    h = ta + sg * mu2
+    num = (c * a + e * b) * f
+    den = c * (f * a - h * b)
+    if plates > 0.0:
+        m4 = plates * mu4
+        if loading:  # psi + 2 (1 - mu1 tg) mu4 (psi - 1) / (mu1 + tg)
+            q = mu1 + tg
+            num, den = num * q + 2.0 * (1.0 - mu1 * tg) * m4 * (num - den), den * q
+        else:  # (tg - mu1) psi / (tg (1 - 2 mu1 mu4 + 2 mu1 mu4 psi) + 2 mu4 psi - 2 mu4 - mu1)
+            num, den = ((tg - mu1) * num,
+                        tg * ((1.0 - 2.0 * mu1 * m4) * den + 2.0 * mu1 * m4 * num)
+                        + 2.0 * m4 * num - (2.0 * m4 + mu1) * den)
+    return num, den
+
+
+@njit(cache=True, inline="always")
 def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r,
                  x_r0, plates_loading, plates_unloading):
-    # plates_loading / plates_unloading: engagement of the movable plates, 0-1, scaling
-    # their friction mu4 (stage 2 / stage 4 at 1, stage 1 / stage 3 at 0)
     """Loading and unloading forces ``(f_l, f_u)`` of the wedge gear at ``x`` (N) and
     their slopes ``(df_l/dx, df_u/dx)`` (N/m).
 
@@ -143,14 +168,14 @@ def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m,
     mu1 = friction_coefficient(h1, h2, h3, c1 * s) * s_factor
     mu2 = friction_coefficient(h1, h2, h3, c2 * s)
     mu3 = friction_coefficient(h1, h2, h3, c3 * s)
-    pl = psi_loading(ta, tb, tg, mu1, mu2, mu3)
-    if plates_loading > 0.0:
-        pl = psi_plates_loading(pl, tg, mu1,
-                                plates_loading * friction_coefficient(h1, h2, h3, s))
-    pu = psi_unloading(ta, tb, tg, mu1, mu2, mu3)
-    if plates_unloading > 0.0:
-        pu = psi_plates_unloading(pu, tg, mu1,
-                                  plates_unloading * friction_coefficient(h1, h2, h3, big_g * s))
+    mu4l = friction_coefficient(h1, h2, h3, s) if plates_loading > 0.0 else 0.0
+    mu4u = friction_coefficient(h1, h2, h3, big_g * s) if plates_unloading > 0.0 else 0.0
+    nl, dl = _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates_loading, mu4l, True)
+    nu, du = _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates_unloading, mu4u, False)
+    # both quotients with one division
+    r = 1.0 / (dl * du)
+    pl = nl * du * r
+    pu = nu * dl * r
     fsm, fsr = spring_forces(x, big_g, k_m, x_m0, k_r, x_r0)
     dsm = k_m * big_g  # d F_sm / dx
     dsr = -k_r * (big_g - 1.0) if fsr > 0.0 else 0.0  # d F_sr / dx
