@@ -57,49 +57,6 @@ def friction_coefficient(h1, h2, h3, v):
 
 
 @njit(cache=True, inline="always")
-def psi_loading(ta, tb, tg, mu1, mu2, mu3):
-    """psi_1, the loading force ratio without the movable plates (paper Eq. 1).
-
-    ``(1 + tan(b + atan mu3) tan(g + atan mu1)) / (1 - tan(a + atan mu2) tan(g + atan mu1))``
-    with each ``tan(x + atan mu) = (tan x + mu) / (1 - mu tan x)`` multiplied out, so
-    that one division remains.
-    """
-    a = 1.0 - mu1 * tg
-    b = tg + mu1
-    c = 1.0 - mu3 * tb
-    e = tb + mu3
-    f = 1.0 - mu2 * ta
-    h = ta + mu2
-    return (c * a + e * b) * f / (c * (f * a - h * b))
-
-
-@njit(cache=True, inline="always")
-def psi_unloading(ta, tb, tg, mu1, mu2, mu3):
-    """psi_3, the unloading force ratio without the movable plates (paper Eq. 1): as
-    :func:`psi_loading` with every ``+ atan mu`` turned into ``- atan mu``."""
-    a = 1.0 + mu1 * tg
-    b = tg - mu1
-    c = 1.0 + mu3 * tb
-    e = tb - mu3
-    f = 1.0 + mu2 * ta
-    h = ta - mu2
-    return (c * a + e * b) * f / (c * (f * a - h * b))
-
-
-@njit(cache=True, inline="always")
-def psi_plates_loading(psi1, tg, mu1, mu4):
-    """psi_2 from psi_1: loading with the movable plates (friction mu4) engaged."""
-    return psi1 + 2.0 * (1.0 - mu1 * tg) * mu4 * (psi1 - 1.0) / (mu1 + tg)
-
-
-@njit(cache=True, inline="always")
-def psi_plates_unloading(psi3, tg, mu1, mu4):
-    """psi_4 from psi_3: unloading with the movable plates carried back."""
-    return (tg - mu1) * psi3 / (tg * (1.0 - 2.0 * mu1 * mu4 + 2.0 * mu1 * mu4 * psi3)
-                                + 2.0 * mu4 * psi3 - 2.0 * mu4 - mu1)
-
-
-@njit(cache=True, inline="always")
 def wedge_geometry(alpha, beta, gamma):
     """``(tan a, tan b, tan g, G, c1, c2, c3)`` for wedge angles in rad.
 
@@ -128,10 +85,18 @@ def spring_forces(x, big_g, k_m, x_m0, k_r, x_r0):
 
 @njit(cache=True, inline="always")
 def _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates, mu4, loading):
-    """psi of one curve as ``(numerator, denominator)``: psi_1 (loading) or psi_3
-    (unloading), and with the plates engaged by ``plates`` (0-1, friction ``mu4``)
-    psi_2 / psi_4, each formula of :func:`psi_loading` ... :func:`psi_plates_unloading`
-    multiplied out over its inner denominator, so one division remains for the caller."""
+    """Force ratio psi of one curve of paper Eq. 1 as ``(numerator, denominator)``.
+
+    Without the plates (``plates = 0``): loading psi_1 =
+    ``(1 + tan(b + atan mu3) tan(g + atan mu1)) / (1 - tan(a + atan mu2) tan(g + atan mu1))``;
+    unloading psi_3 the same with every ``+ atan mu`` turned into ``- atan mu``. With the
+    movable plates engaged by ``plates`` (0-1, their friction ``mu4`` scaled by it):
+    psi_2 = ``psi_1 + 2 (1 - mu1 tg) mu4 (psi_1 - 1) / (mu1 + tg)`` and psi_4 =
+    ``(tg - mu1) psi_3 / (tg (1 - 2 mu1 mu4 + 2 mu1 mu4 psi_3) + 2 mu4 psi_3 - 2 mu4 - mu1)``.
+    Each ``tan(x + atan mu) = (tan x + mu) / (1 - mu tan x)`` and each inner quotient is
+    multiplied out, so one division remains for the caller. ``ta, tb, tg`` are the
+    tangents of the wedge angles; all quantities are dimensionless.
+    """
     sg = 1.0 if loading else -1.0  # + atan mu on loading, - atan mu on unloading
     a = 1.0 - sg * mu1 * tg
     b = tg + sg * mu1
@@ -329,8 +294,7 @@ def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor,
 
 
 __all__ = [
-    "friction_coefficient", "psi_loading", "psi_unloading", "psi_plates_loading",
-    "psi_plates_unloading", "wedge_geometry", "spring_forces", "wedge_curves",
+    "friction_coefficient", "wedge_geometry", "spring_forces", "wedge_curves",
     "hysteresis", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
     "wedge_gear_quasistatic",
 ]
