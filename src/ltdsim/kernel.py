@@ -90,7 +90,7 @@ from ltdsim.lowering import (
     P_TLOAD,
     P_TRAVEL,
     P_TUNL,
-    P_VC,
+    P_IVC,
     P_XM0,
     P_XR0,
     P_ZOFF,
@@ -125,7 +125,7 @@ from ltdsim.physics.brakes import (
     karwatzki,
 )
 from ltdsim.physics.control import pid_step
-from ltdsim.physics.couplers import coupler_linear, coupler_simplified
+from ltdsim.physics.couplers import coupler_linear, simplified_force
 from ltdsim.physics.draftgear import (
     hysteresis,
     plate_rate,
@@ -274,8 +274,8 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
     (m/s). A hysteretic gear reads its states at ``y[z0 + offset]`` and writes their
     rates to ``dy[dz0 + offset]``."""
     if model == C_SIMPLIFIED:
-        return coupler_simplified(d, dd, cpl[j, P_SLACK], cpl[j, P_PRELOAD], cpl[j, P_DAMP],
-                                  cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_VC])
+        return simplified_force(d, dd, cpl[j, P_SLACK], cpl[j, P_PRELOAD], cpl[j, P_DAMP],
+                                cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_IVC])
     if model == C_LINEAR:
         return coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, P_STIFF], cpl[j, P_DAMP])
     zo = int(cpl[j, P_ZOFF])

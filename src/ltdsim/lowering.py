@@ -34,7 +34,8 @@ N_KCOL = 11
 C_LINEAR, C_SIMPLIFIED, C_WEDGE, C_TABLE = 0, 1, 2, 3
 MODEL_CODES = {"linear": C_LINEAR, "simplified": C_SIMPLIFIED, "friction_wedge": C_WEDGE,
                "table": C_TABLE}
-(P_SLACK, P_PRELOAD, P_DAMP, P_STIFF, P_K1, P_K2, P_K3, P_VC, P_D0,
+# (P_IVC: inverse critical velocity 1/v_c, s/m, so the kernel multiplies)
+(P_SLACK, P_PRELOAD, P_DAMP, P_STIFF, P_K1, P_K2, P_K3, P_IVC, P_D0,
  # hysteretic gears (friction_wedge, table): internal-state offset, rates, limits
  P_ZOFF, P_RATE, P_KLOCK, P_TRAVEL, P_KSOLID,
  # friction_wedge: geometry (tan a, tan b, tan g, G, speed ratios), friction, springs
@@ -138,9 +139,9 @@ def lower(s: Scenario) -> Lowered:
         c = s.coupler(i)
         cpl_model[i] = MODEL_CODES[c.model]
         row = cpl[i]
-        row[[P_SLACK, P_PRELOAD, P_DAMP, P_STIFF, P_K1, P_K2, P_K3, P_VC, P_D0]] = [
+        row[[P_SLACK, P_PRELOAD, P_DAMP, P_STIFF, P_K1, P_K2, P_K3, P_IVC, P_D0]] = [
             c.slack, c.preload, c.damping, c.stiffness or 0.0, c.k1 or 0.0, c.k2, c.k3 or 0.0,
-            c.v_c or 1.0, sign0 * 0.5 * c.slack]
+            1.0 / (c.v_c or 1.0), sign0 * 0.5 * c.slack]
         row[P_ZOFF] = -1.0
         if c.model in ("friction_wedge", "table"):
             row[P_ZOFF] = nz

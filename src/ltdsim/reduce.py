@@ -27,7 +27,7 @@ from scipy.optimize import differential_evolution
 
 from ltdsim.gear import MODE_FORCE, STUDY_SINES, _lowered_gear, integrate_rig, sine_chain
 from ltdsim.identify import fit_percent
-from ltdsim.lowering import P_DAMP, P_K1, P_K2, P_K3, P_VC
+from ltdsim.lowering import P_DAMP, P_IVC, P_K1, P_K2, P_K3
 from ltdsim.physics.couplers import coupler_simplified
 from ltdsim.scenario import CouplerParams
 
@@ -100,7 +100,8 @@ class RigObjective:
     def force(self, values) -> np.ndarray:
         """Gear force history (N) of the simplified coupler with ``values`` (SI)."""
         cpl = self.cpl.copy()
-        cpl[0, [P_DAMP, P_K1, P_K2, P_K3, P_VC]] = values
+        cpl[0, [P_DAMP, P_K1, P_K2, P_K3]] = values[:4]
+        cpl[0, P_IVC] = 1.0 / values[4]  # v_c, m/s
         return integrate_rig(self.model, cpl, self.ctab, MODE_FORCE, self.t, self.force_in,
                              self.force_in, self.mass, self.t[-1] - self.t[0], self.dt,
                              self.method).force

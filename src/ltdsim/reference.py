@@ -17,7 +17,7 @@ import numpy as np
 
 from ltdsim.lowering import (
     C_LINEAR, C_SIMPLIFIED, D_KD, D_KI, D_KP, D_MODE, D_N, K_TAU, MODE_NOTCH, MODE_SPEED, P_D0,
-    P_DAMP, P_K1, P_K2, P_K3, P_PRELOAD, P_SLACK, P_STIFF, P_VC, T_AMAX, T_DMAX, T_FF, T_FMAX,
+    P_DAMP, P_K1, P_K2, P_K3, P_PRELOAD, P_SLACK, P_STIFF, P_IVC, T_AMAX, T_DMAX, T_FF, T_FMAX,
     T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_DA, V_DB, V_DC, V_DV0, V_MASS, V_P0, V_SHARE, V_WMASS, lower,
 )
 from ltdsim.physics import (
@@ -65,7 +65,7 @@ def make_rhs(scenario: Scenario):
             linear,
             coupler_linear(d, dd, cpl[:, P_SLACK], cpl[:, P_STIFF], cpl[:, P_DAMP]),
             coupler_simplified(d, dd, cpl[:, P_SLACK], cpl[:, P_PRELOAD], cpl[:, P_DAMP],
-                               cpl[:, P_K1], cpl[:, P_K2], cpl[:, P_K3], cpl[:, P_VC]))
+                               cpl[:, P_K1], cpl[:, P_K2], cpl[:, P_K3], 1.0 / cpl[:, P_IVC]))
         extra = []
         if speed:
             e = np.interp(t, low.prof_t, low.prof_y) - v[ref]

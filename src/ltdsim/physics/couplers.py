@@ -63,6 +63,25 @@ def coupler_linear(d, dd, slack, stiffness, damping):
     return contact(stiffness * e + damping * dd, e, slack)
 
 
+@njit(cache=True, inline="always")
+def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc):
+    """:func:`coupler_simplified` with the critical velocity given as its inverse
+    ``inv_vc = 1 / v_c`` (s/m), as the kernel stores it (a multiplication in the inner
+    loop instead of a division), N."""
+    h = 0.5 * slack
+    if d > h:
+        e = d - h
+        f = preload + (k3 + k2 * exp_neg(abs(dd) * inv_vc)) * e + damping * dd
+    elif d < -h:
+        e = d + h
+        f = -preload + k1 * e + damping * dd
+    elif slack > 0.0:
+        return 0.0
+    else:
+        return damping * dd  # no slack and d == 0 exactly: only the damper acts
+    return contact(f, e, slack)
+
+
 @vectorize(
     ["float64(float64, float64, float64, float64, float64, float64, float64, float64, float64)"],
     cache=True,
@@ -97,15 +116,4 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
     v_c : float
         Critical velocity, m/s.
     """
-    h = 0.5 * slack
-    if d > h:
-        e = d - h
-        f = preload + (k3 + k2 * exp_neg(abs(dd) / v_c)) * e + damping * dd
-    elif d < -h:
-        e = d + h
-        f = -preload + k1 * e + damping * dd
-    elif slack > 0.0:
-        return 0.0
-    else:
-        return damping * dd  # no slack and d == 0 exactly: only the damper acts
-    return contact(f, e, slack)
+    return simplified_force(d, dd, slack, preload, damping, k1, k2, k3, 1.0 / v_c)

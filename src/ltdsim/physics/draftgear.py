@@ -43,7 +43,7 @@ import math
 
 from numba import njit, vectorize
 
-from ltdsim.physics.decay import exp_neg
+from ltdsim.physics.decay import exp_neg_small
 
 
 
@@ -53,7 +53,7 @@ def friction_coefficient(h1, h2, h3, v):
 
     ``h1`` kinetic part, ``h2`` static excess, ``h3`` decay, s/m; ``v`` sliding speed, m/s.
     """
-    return h1 + h2 * exp_neg(h3 * abs(v))
+    return h1 + h2 * exp_neg_small(h3 * abs(v))
 
 
 @njit(cache=True, inline="always")
