@@ -240,11 +240,12 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
             s_factor = cpl[j, P_S]
         u = x - gap
         ramp = max(delta, 1e-3)  # plate friction fades in and out over this travel, m
+        engaged = plates_out(p, ramp)
         f_l, f_u, s_l, s_u = wedge_curves(
             x, v, cpl[j, P_TA], cpl[j, P_TB], cpl[j, P_TG], cpl[j, P_G], cpl[j, P_C1],
             cpl[j, P_C2], cpl[j, P_C3], cpl[j, P_H1], cpl[j, P_H2], cpl[j, P_H3], s_factor,
-            cpl[j, P_KM], cpl[j, P_XM0], cpl[j, P_KR], cpl[j, P_XR0], plates_out(p, ramp),
-            plates_out(p, ramp) if plates_carried(u, p, delta) else 0.0)
+            cpl[j, P_KM], cpl[j, P_XM0], cpl[j, P_KR], cpl[j, P_XR0], engaged,
+            engaged if plates_carried(u, p, delta) else 0.0)
     else:
         f_l, s_l = table_curve(ctab, int(cpl[j, P_TLOAD]), int(cpl[j, P_NLOAD]), x)
         f_u, s_u = table_curve(ctab, int(cpl[j, P_TUNL]), int(cpl[j, P_NUNL]), x)

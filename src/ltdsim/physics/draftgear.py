@@ -156,13 +156,15 @@ def hysteresis(f1, f_l, f_u, s_l, s_u, v, k_locked, rate):
     ``(k_locked + s_band) v + rate (F - F1)`` (N/s) with ``s_band`` the band's slope
     (N/m) at F's place between the curves. ``v = dx/dt`` (m/s), ``rate`` in 1/s.
     """
-    f = min(max(f1, f_u), f_l)
-    width = f_l - f_u
-    if width > 1e-9 * (abs(f_l) + 1.0):
-        w = (f - f_u) / width
-        s_band = s_u + w * (s_l - s_u)
-    else:
+    if f1 >= f_l:  # on the loading curve (also where the curves meet)
+        f = f_l
         s_band = s_l
+    elif f1 <= f_u:  # on the unloading curve
+        f = f_u
+        s_band = s_u
+    else:  # locked between them (no division on the curves, where gears mostly are)
+        f = f1
+        s_band = s_u + (f1 - f_u) / (f_l - f_u) * (s_l - s_u)
     return f, (k_locked + s_band) * v + rate * (f - f1)
 
 
