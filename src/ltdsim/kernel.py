@@ -112,7 +112,7 @@ from ltdsim.lowering import (
     V_DA,
     V_DB,
     V_DC,
-    V_DV0,
+    V_DIV0,
     V_MASS,
     V_P0,
     V_SHARE,
@@ -137,7 +137,7 @@ from ltdsim.physics.draftgear import (
 )
 from ltdsim.physics.resistance import (
     curve_resistance,
-    davis_resistance,
+    davis_force,
     grade_resistance,
 )
 from ltdsim.physics.traction import adhesion_limit, traction_limit
@@ -363,7 +363,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         v = y[n + i]
         p = veh[i, V_P0] + y[i]
         wm = veh[i, V_WMASS]
-        r = davis_resistance(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DV0])
+        r = davis_force(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DIV0])
         kt = _segment(tpos, p, hints[i])
         hints[i] = kt
         r += grade_resistance(wm, tgrade[kt], g)

@@ -18,7 +18,7 @@ import numpy as np
 from ltdsim.lowering import (
     C_LINEAR, C_SIMPLIFIED, D_KD, D_KI, D_KP, D_MODE, D_N, K_TAU, MODE_NOTCH, MODE_SPEED, P_D0,
     P_DAMP, P_K1, P_K2, P_K3, P_PRELOAD, P_SLACK, P_STIFF, P_IVC, T_AMAX, T_DMAX, T_FF, T_FMAX,
-    T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_DA, V_DB, V_DC, V_DV0, V_MASS, V_P0, V_SHARE, V_WMASS, lower,
+    T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_DA, V_DB, V_DC, V_DIV0, V_MASS, V_P0, V_SHARE, V_WMASS, lower,
 )
 from ltdsim.physics import (
     coupler_linear, coupler_simplified, curve_resistance, davis_resistance, grade_resistance,
@@ -56,7 +56,7 @@ def make_rhs(scenario: Scenario):
         x, v = y[:n], y[n:2 * n]
         p = veh[:, V_P0] + x
         k = np.clip(np.searchsorted(low.track_pos, p, side="right") - 1, 0, None)
-        res = (davis_resistance(v, veh[:, V_DA], veh[:, V_DB], veh[:, V_DC], veh[:, V_DV0])
+        res = (davis_resistance(v, veh[:, V_DA], veh[:, V_DB], veh[:, V_DC], 1.0 / veh[:, V_DIV0])
                + grade_resistance(wm, low.track_grade[k], g)
                + curve_resistance(v, wm, low.track_curv[k], low.curve_h, g))
         d = x[:-1] - x[1:] + cpl[:, P_D0]
