@@ -214,8 +214,10 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
     * loading ``f_l(x) = P + (F - P) (x / X)^n``, the exponent ``n`` chosen so that the
       table's area (trapezoids between its points, as the kernel interpolates) equals
       the capacity;
-    * unloading ``f_u = (1 - a) f_l``, so a full closing and release absorbs ``a`` times
-      the capacity;
+    * unloading a fixed share of loading, ``f_u = c f_l``, with ``c`` such that a slow
+      release from full travel (first down the locked line, then along ``f_u``) gives
+      back ``(1 - a)`` of the capacity, so a full closing and release absorbs ``a``
+      times it;
     * ``k_locked`` such that the gear turns from loading to unloading at full travel
       within ``turn`` of its travel, or less where the energy it gives back on that
       line would exceed half of what it may give back at all (``turn <= a (1 - a)
