@@ -52,7 +52,10 @@ def traction_limit(v, max_force, max_power, adhesion_mass, g):
     s = abs(v)
     if s * f > max_power:
         f = max_power / max(s, 1e-12)  # (s > 0 here; the guard keeps speculation quiet)
-    fa = adhesion_limit(s, adhesion_mass, g)
-    if fa < f:
-        f = fa
+    # adhesion m g (c0 + c1 / (3.6 s + c2)) below f? Decided without the division (the
+    # denominator is positive), which is then paid only where adhesion limits
+    mg = adhesion_mass * g
+    den = 3.6 * s + _C2
+    if (f - mg * _C0) * den > mg * _C1:
+        f = mg * (_C0 + _C1 / den)
     return f
