@@ -13,6 +13,7 @@ import numpy as np
 from ltdsim.integrators import Tableau, get_tableau
 from ltdsim.physics.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
+from ltdsim.physics.resistance import PURE_SIGN
 from ltdsim.scenario import Scenario
 
 # vehicle table columns: mass, weight mass, Davis, share of its consist's traction,
@@ -20,7 +21,7 @@ from ltdsim.scenario import Scenario
 # y (-1 unbraked), full-application shoe force (N, cylinder force x rigging ratio), force
 # per shoe at full application (N), friction model, constant mu, friction table offset
 # and length, brake-pipe signal delay from the nearest control point (s)
-# (V_DIV0: inverse Davis standstill speed 1/v0, s/m, infinite for v0 = 0)
+# (V_DIV0: inverse Davis standstill speed 1/v0, s/m; resistance.PURE_SIGN for v0 = 0)
 (V_MASS, V_WMASS, V_DA, V_DB, V_DC, V_DIV0, V_SHARE, V_P0, V_CONS, V_BZ, V_BFULL, V_BSHOE,
  V_BFRIC, V_BMU, V_BTAB, V_BNTAB, V_BDELAY) = range(17)
 N_VCOL = 17
@@ -119,7 +120,7 @@ def lower(s: Scenario) -> Lowered:
         veh[i, V_MASS] = v.mass
         veh[i, V_WMASS] = v.weight_mass
         veh[i, V_DA], veh[i, V_DB], veh[i, V_DC] = v.davis.a, v.davis.b, v.davis.c
-        veh[i, V_DIV0] = 1.0 / v.davis.v0 if v.davis.v0 > 1e-12 else np.inf
+        veh[i, V_DIV0] = 1.0 / v.davis.v0 if v.davis.v0 > 1e-12 else PURE_SIGN
     veh[:, V_P0] = p0
     veh[:, V_CONS] = 0.0  # unpowered vehicles: consist 0 with share 0
     veh[:, V_BZ] = -1.0

@@ -7,9 +7,12 @@ force balance ``m a = F_traction - F_resist - T_i + T_(i-1)``.
 
 from __future__ import annotations
 
-import math
-
 from numba import njit, vectorize
+
+#: inverse standstill speed (s/m) that gives the pure sign: every speed counted as
+#: moving (>= 1e-12 m/s) reaches the full constant term; finite, so that a speed of 0
+#: times it is 0, not NaN, even where the product is computed ahead of the test
+PURE_SIGN = 1e12
 
 _F8_3 = ["float64(float64, float64, float64)"]
 _F8_5 = ["float64(float64, float64, float64, float64, float64)"]
@@ -18,7 +21,7 @@ _F8_5 = ["float64(float64, float64, float64, float64, float64)"]
 @njit(cache=True, inline="always")
 def davis_force(v, a, b, c, inv_v0):
     """:func:`davis_resistance` with the standstill speed given as its inverse
-    ``inv_v0 = 1 / v0`` (s/m; infinite for the pure sign), as the kernel stores it: a
+    ``inv_v0 = 1 / v0`` (s/m; ``PURE_SIGN`` for the pure sign), as the kernel stores it: a
     multiplication per vehicle instead of a division, N."""
     s = abs(v)
     if s < 1e-12:  # at rest (and no endless decay into subnormal speeds, which are slow)
@@ -52,7 +55,7 @@ def davis_resistance(v, a, b, c, v0):
     v0 : float
         Standstill speed below which the constant term is scaled down, m/s.
     """
-    return davis_force(v, a, b, c, 1.0 / v0 if v0 > 1e-12 else math.inf)
+    return davis_force(v, a, b, c, 1.0 / v0 if v0 > 1e-12 else PURE_SIGN)
 
 
 @vectorize(_F8_3, cache=True)
