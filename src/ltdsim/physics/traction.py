@@ -55,7 +55,6 @@ def traction_limit(v, max_force, max_power, adhesion_mass, g):
     # adhesion m g (c0 + c1 / (3.6 s + c2)) below f? Decided without the division (the
     # denominator is positive), which is then paid only where adhesion limits
     mg = adhesion_mass * g
-    den = 3.6 * s + _C2
-    if (f - mg * _C0) * den > mg * _C1:
-        f = mg * (_C0 + _C1 / den)
+    if (f - mg * _C0) * (3.6 * s + _C2) > mg * _C1:
+        f = adhesion_limit(s, adhesion_mass, g)
     return f
