@@ -1,13 +1,21 @@
-"""The study report end to end on a shortened scenario with two cases."""
+"""The study report end to end on a shortened scenario with two cases: every table and
+figure present and finite, the side-by-side comparison first, units on every numeric
+column, couplers counted from 1, and a shortened run that never replaces a report made
+with other settings."""
 
 import re
+from html.parser import HTMLParser
 
 import numpy as np
 import pandas as pd
+import pytest
 
+from ltdsim.errors import ScenarioError
 from ltdsim.study import run_study
 
-from conftest import PAPER
+from conftest import PAPER, ROOT
+
+SHORT = {"solver.t_end": 12.0}
 
 
 def short_paper(tmp_path, keep=("LHHL", "HHHH")):
@@ -21,39 +29,138 @@ def short_paper(tmp_path, keep=("LHHL", "HHHH")):
     return p
 
 
-def test_the_report_has_every_table_and_figure_and_only_finite_numbers(tmp_path):
-    scenario = short_paper(tmp_path)
-    out = tmp_path / "report"
-    index = run_study(scenario, out, overrides={"solver.t_end": 12.0}, reduction_maxiter=3,
-                      workers=2)
+class _Tables(HTMLParser):
+    """Headings in order, and every table as (header texts, rows of cell texts)."""
+
+    def __init__(self):
+        super().__init__()
+        self.headings, self.tables, self._cell, self._where = [], [], None, None
+
+    def handle_starttag(self, tag, attrs):
+        if tag in ("h2", "h3"):
+            self._where, self._cell = "h", []
+        elif tag == "table":
+            self.tables.append(([], []))
+        elif tag == "tr" and self.tables:
+            self.tables[-1][1].append([])
+        elif tag in ("th", "td"):
+            self._where, self._cell = tag, []
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell.append(data)
+
+    def handle_endtag(self, tag):
+        text = "".join(self._cell or []).strip()
+        if tag in ("h2", "h3") and self._where == "h":
+            self.headings.append(text)
+        elif tag == "th":
+            self.tables[-1][0].append(text)
+        elif tag == "td":
+            self.tables[-1][1][-1].append(text)
+        else:
+            return
+        self._cell = self._where = None
+
+
+def parse(page: str) -> _Tables:
+    p = _Tables()
+    p.feed(page)
+    p.tables = [(head, [r for r in rows if r]) for head, rows in p.tables]  # header rows
+    return p
+
+
+def _number(text: str) -> bool:
+    return re.fullmatch(r"[-+−]?[\d,]*\.?\d+(e[-+]?\d+)?", text.replace("\u2212", "-")) is not None
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("study")
+    scenario = short_paper(tmp)
+    out = tmp / "report"
+    index = run_study(scenario, out, overrides=SHORT, reduction_maxiter=3, workers=2)
+    return scenario, out, index
+
+
+def test_the_report_has_every_table_and_figure_and_only_finite_numbers(report):
+    scenario, out, index = report
     page = index.read_text()
-    for title in ("Table 1", "Table 2", "Table 3", "Table 4", "Table 5", "Tables 6-7",
+    for title in ("Table 1", "Table 2", "Table 3", "Table 4", "Table 5", "Table 6", "Table 7",
                   "Fig. 3a", "Fig. 3b", "Fig. 4", "Fig. 5", "Fig. 6", "Fig. 7", "Fig. 8",
-                  "Fig. 9a", "Fig. 9b", "What to take away"):
+                  "Fig. 9a", "Fig. 9b", "What to take away", "side by side"):
         assert title in page, title
     images = re.findall(r'src="data:image/png;base64,([A-Za-z0-9+/=]+)"', page)
     assert len(images) == 10 and all(len(i) > 1000 for i in images)  # Fig. 3a-9b
     assert "http://" not in page and "https://" not in page  # readable offline
     for csv in ("table1_reduction", "table2_speed_error", "table3_identification",
-                "table4_step_response", "table5_phase_norms", "tables6_7_spectra",
-                "traction_check", "modal_bands"):
+                "table4_step_response", "table5_phase_norms", "table6_spectral_peaks",
+                "table7_spectra", "traction_check", "modal_bands", "critical_couplers",
+                "side_by_side"):
         df = pd.read_csv(out / f"{csv}.csv")
         assert len(df) > 0, csv
         nums = df.select_dtypes("number").to_numpy(dtype=float)
-        if csv == "table1_reduction":  # the study gives no fit % to compare with
-            nums = nums[~np.isnan(nums)]
+        nums = nums[~np.isnan(nums)]  # study columns are empty where the study has no value
         assert np.all(np.isfinite(nums)), csv
     assert (out / "base_case.nc").is_file()
     # a second run reuses every finished stage
     before = {p: p.stat().st_mtime for p in out.glob("fig*.png")}
-    run_study(scenario, out, overrides={"solver.t_end": 12.0}, reduction_maxiter=3, workers=2)
+    run_study(scenario, out, overrides=SHORT, reduction_maxiter=3, workers=2)
     assert before == {p: p.stat().st_mtime for p in out.glob("fig*.png")}
 
 
-def test_the_report_renders_in_headless_chromium(tmp_path):
-    import shutil
+def test_the_comparison_with_the_study_comes_first_and_a_short_run_says_it_is_one(report):
+    _, out, index = report
+    page = index.read_text()
+    doc = parse(page)
+    assert doc.headings[0] == "ltdsim and the study, side by side"
+    header, rows = doc.tables[0]
+    assert header[:4] == ["the study's claim (where)", "the study", "ltdsim", "agree?"]
+    claims = " ".join(r[0] for r in rows)
+    for claim in ("HHLL", "critical", "adhesion", "0-4 Hz", "Modal band"):
+        assert claim in claims, claim
+    # this run is 12 s of the study's 270 s: the banner says so and nothing "agrees"
+    assert "This is not the study's run" in page and "solver.t_end = 12.0" in page
+    assert {r[3] for r in rows} == {"not comparable"}
 
-    import pytest
+
+def test_every_numeric_column_has_a_unit_and_couplers_count_from_1(report):
+    _, out, index = report
+    page = index.read_text()
+    doc = parse(page)
+    for header, rows in doc.tables:
+        for k, name in enumerate(header):
+            cells = [r[k] for r in rows if k < len(r) and r[k] not in ("", "\u2013")]
+            if cells and all(_number(c) for c in cells):
+                assert re.search(r"\[[^\]]+\]", name), f"no unit in {name!r} ({header})"
+    assert not re.search(r"coupler 0\b", page, re.IGNORECASE)
+    for header, rows in doc.tables:
+        for k, name in enumerate(header):
+            if re.match(r"coupler( \[|$)", name):  # a column of coupler numbers
+                assert min(int(r[k]) for r in rows) == 1, header
+    for csv in out.glob("*.csv"):  # at most 6 significant figures
+        digits = re.findall(r"(?<![\w.])-?(\d+\.\d+)(?:e[-+]\d+)?", csv.read_text())
+        assert all(len(d.replace(".", "").lstrip("0")) <= 6 for d in digits), csv
+
+
+def test_a_short_run_never_replaces_a_report_made_with_other_settings(report, tmp_path):
+    scenario, out, index = report
+    files = {p: p.read_bytes() for p in out.glob("*.*")}
+    with pytest.raises(ScenarioError, match="--output.*other settings.*solver.t_end|"
+                                            "--output.*other settings"):
+        run_study(scenario, out, overrides={"solver.t_end": 6.0}, reduction=False, workers=1)
+    assert files == {p: p.read_bytes() for p in out.glob("*.*")}
+    # a folder with somebody else's files is not taken over either
+    other = tmp_path / "mine"
+    other.mkdir()
+    (other / "notes.txt").write_text("keep me")
+    with pytest.raises(ScenarioError, match="not empty"):
+        run_study(scenario, other, overrides={"solver.t_end": 6.0}, reduction=False)
+    assert (other / "notes.txt").read_text() == "keep me"
+
+
+def test_the_report_renders_in_headless_chromium_without_overflow(tmp_path):
+    import shutil
 
     webdriver = pytest.importorskip("selenium.webdriver")
     chromium, driver_bin = shutil.which("chromium"), shutil.which("chromedriver")
@@ -63,26 +170,38 @@ def test_the_report_renders_in_headless_chromium(tmp_path):
     from selenium.webdriver.chrome.service import Service
 
     index = run_study(short_paper(tmp_path, keep=("LHHL",)), tmp_path / "report",
-                      overrides={"solver.t_end": 12.0}, reduction=False, workers=1)
-    opts = Options()
-    opts.binary_location = chromium
-    for flag in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run",
-                 "--window-size=1280,1024", f"--user-data-dir={tmp_path / 'profile'}"):
-        opts.add_argument(flag)
-    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    browser = webdriver.Chrome(service=Service(driver_bin), options=opts)
-    try:
-        browser.get(index.as_uri())
-        sizes = browser.execute_script(
-            "return Array.from(document.images).map(i => [i.complete, i.naturalWidth, "
-            "i.getBoundingClientRect().width, i.getBoundingClientRect().height]);")
-        shot = tmp_path / "report.png"
-        browser.save_screenshot(str(shot))
-        errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
-    finally:
-        browser.quit()
-    assert len(sizes) >= 8
-    assert all(done and nat > 0 and w > 0 and h > 0 for done, nat, w, h in sizes), sizes
-    assert errors == []
-    assert shot.stat().st_size > 10_000
+                      overrides=SHORT, reduction=False, workers=1)
+    shots = ROOT / "benchmarks" / "results"
+    for width in (1400, 900):
+        opts = Options()
+        opts.binary_location = chromium
+        for flag in ("--headless", "--no-sandbox", "--disable-gpu",
+                     "--disable-background-networking", "--disable-component-update",
+                     "--disable-sync", "--no-first-run", f"--window-size={width},1000",
+                     "--hide-scrollbars", f"--user-data-dir={tmp_path / f'profile{width}'}"):
+            opts.add_argument(flag)
+        opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+        browser = webdriver.Chrome(service=Service(driver_bin), options=opts)
+        try:
+            browser.get(index.as_uri())
+            sizes = browser.execute_script(
+                "return Array.from(document.images).map(i => [i.complete, i.naturalWidth, "
+                "i.getBoundingClientRect().width, i.getBoundingClientRect().height]);")
+            overflow = browser.execute_script(
+                "return Array.from(document.querySelectorAll('table')).filter(t => "
+                "t.getBoundingClientRect().width > t.parentElement.clientWidth + 1)"
+                ".map(t => t.querySelector('th').textContent);")
+            page_wide = browser.execute_script(
+                "return document.documentElement.scrollWidth > window.innerWidth + 1;")
+            browser.set_window_size(width, 2400)  # the page's top: the comparison first
+            shot = shots / f"report_{width}px.png"
+            browser.save_screenshot(str(shot))
+            errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+        finally:
+            browser.quit()
+        assert len(sizes) >= 8
+        assert all(done and nat > 0 and w > 0 and h > 0 for done, nat, w, h in sizes), sizes
+        assert overflow == [], f"tables wider than the page at {width} px: {overflow}"
+        assert not page_wide
+        assert errors == []
+        assert shot.stat().st_size > 10_000

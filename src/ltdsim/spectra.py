@@ -37,12 +37,21 @@ def amplitude_spectrum(x, dt: float, detrend: bool = True, window: str = "boxcar
 
 
 def band_stats(f, a, f_max: float = 10.0, f_min: float = 0.0) -> dict:
-    """Largest amplitude, its frequency, and the RMS of the signal content in the band
-    ``[f_min, f_max]`` Hz (Parseval: ``sqrt(sum a^2 / 2)`` over the band's sinusoids)."""
+    """Largest amplitude, its frequency, and two RMS values over the band ``[f_min,
+    f_max]`` Hz, in the unit of the amplitudes:
+
+    * ``rms``: the RMS of the signal content in the band (Parseval: ``sqrt(sum a^2 / 2)``
+      over the band's sinusoids); it grows with the number of lines and can exceed the
+      largest single line;
+    * ``spectrum_rms``: the RMS of the amplitude spectrum's values over the band's
+      lines, ``sqrt(mean a^2)``, never above the largest line. The study's Table 7
+      ("maximum and average (RMS between 0-10 Hz)") reads as this one.
+    """
     band = (f >= f_min) & (f <= f_max)
     k = int(np.argmax(np.where(band, a, -np.inf)))
     return {"max": float(a[k]), "f_at_max_hz": float(f[k]),
-            "rms": float(np.sqrt(np.sum(a[band] ** 2) / 2.0))}
+            "rms": float(np.sqrt(np.sum(a[band] ** 2) / 2.0)),
+            "spectrum_rms": float(np.sqrt(np.mean(a[band] ** 2)))}
 
 
 def spectral_peaks(f, a, modes_low=(), modes_high=(), f_max: float = 10.0,
@@ -118,10 +127,36 @@ def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
             peaks = spectral_peaks(f, amp, low, high, f_max)
             rows.append({"phase": name, "coupler": c, "max_N": s["max"],
                          "f_at_max_hz": s["f_at_max_hz"], "band_rms_N": s["rms"],
+                         "spectrum_rms_N": s["spectrum_rms"],
                          "peaks": "; ".join(f"{p['frequency_hz']:.1f} Hz"
                                             + (f" ({p['mode']} mode {p['mode_frequency_hz']:.2f})"
                                                if "mode" in p else "") for p in peaks)})
     return pd.DataFrame(rows)
+
+
+def band_share(ds, scenario=None, couplers=(0, 7, 8), f_split: float = 4.0,
+               f_max: float = 10.0) -> dict:
+    """Share (0-1) of each coupler's force fluctuation between 0 and ``f_max`` Hz that
+    lies below ``f_split`` Hz, per phase: ``{phase: {coupler index: share}}`` (Parseval:
+    sums of squared amplitudes of the mean-free spectrum). The study finds the coupler
+    forces' content within 0-4 Hz (§5.2)."""
+    import json
+
+    from ltdsim.phases import phases_of
+    from ltdsim.scenario import Scenario
+
+    if scenario is None:
+        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    dt = float(ds.time[1] - ds.time[0])
+    out = {}
+    for name, a, b in phases_of(ds, scenario):
+        w = ds.coupler_force.sel(time=slice(a, b - 0.5 * dt))
+        out[name] = {}
+        for c in couplers:
+            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt)
+            total = np.sum(amp[f <= f_max] ** 2)
+            out[name][str(c)] = float(np.sum(amp[f < f_split] ** 2) / total) if total > 0 else 1.0
+    return out
 
 
 def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0):

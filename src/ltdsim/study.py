@@ -1,8 +1,8 @@
 """`ltdsim study`: the whole study reproduced as one report (paper §3-5).
 
-Stages, each cached in ``<out>/cache`` by a hash of what it was computed from (so a
-re-run reuses finished stages and an interrupted study resumes; the sweep also resumes
-case by case):
+Stages, each cached in ``<out>/cache`` by a hash of what it was computed from and of
+ltdsim's own code (so a re-run reuses finished stages, an interrupted study resumes, and
+a new version of ltdsim recomputes; the sweep also resumes case by case):
 
 1. reduction: the simplified coupler fitted to the low and high friction gears (Table 1,
    Fig. 3);
@@ -13,30 +13,36 @@ case by case):
    critical couplers (Tables 6-7, Fig. 9);
 4. modal: natural frequencies and mode shapes (Fig. 8);
 5. the report: ``index.html`` (self-contained, figures embedded), every table also as CSV.
+
+A report folder remembers the settings it was made with (``study.json``): a study with
+other settings (``--set`` overrides, no reduction, another base case) refuses to write
+over it unless forced, and a report whose settings differ from the scenario file's
+carries a banner saying what differs.
 """
 
 from __future__ import annotations
 
-import base64
 import hashlib
-import html
 import json
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
-from ltdsim import __version__
+from ltdsim._provenance import code_hash
+from ltdsim.errors import ScenarioError
 from ltdsim.io import atomic_path, save_result
 from ltdsim.scenario import CouplerParams, Scenario, load_scenario
 
 STAGES = ("reduction", "sweep", "base", "modal", "report")
 Progress = Callable[[str, str], None]
+#: the study's own settings: its base case and the reduction's generation limit (§3, §5)
+STUDY_CASE = "LHHL"
+STUDY_REDUCTION_MAXITER = 1000
+#: the file in a report folder that records the settings the report was made with
+MANIFEST = "study.json"
 
 
 def _key(*parts) -> str:
-    text = json.dumps([__version__, *parts], sort_keys=True, default=str)
+    text = json.dumps([code_hash(), *parts], sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -47,10 +53,13 @@ class _Cache:
 
     def get(self, stage: str, key: str):
         p = self.dir / f"{stage}.json"
-        if p.is_file():
+        try:
             rec = json.loads(p.read_text())
-            if rec.get("key") == key and all(Path(f).is_file() for f in rec.get("files", [])):
-                return rec["value"]
+        except (OSError, ValueError):  # absent, unreadable or corrupt: recompute
+            return None
+        if (isinstance(rec, dict) and rec.get("key") == key
+                and all(Path(f).is_file() for f in rec.get("files", []))):
+            return rec["value"]
         return None
 
     def put(self, stage: str, key: str, value, files=()):
@@ -60,10 +69,72 @@ class _Cache:
         return value
 
 
-def _csv(df: pd.DataFrame, path: Path, index=False) -> Path:
-    with atomic_path(path) as tmp:
-        df.to_csv(tmp, index=index)
-    return path
+def study_settings(scenario_path: Path, case: str, overrides: dict | None, reduction: bool,
+                   reduction_maxiter: int) -> dict:
+    """What a report is made from: the scenario file (path and a hash of its content),
+    the base case, the overrides, and the model-reduction settings. Two studies are the
+    same study when all but the content hash agree (an edited scenario file is a new
+    version of the same study)."""
+    return {"scenario": str(Path(scenario_path).resolve()),
+            "scenario_sha256": hashlib.sha256(Path(scenario_path).read_bytes()).hexdigest(),
+            "case": case, "overrides": dict(overrides or {}), "reduction": bool(reduction),
+            "reduction_maxiter": int(reduction_maxiter)}
+
+
+def deviations(settings: dict, scenario: Scenario) -> list[str]:
+    """How a study's settings depart from the study as published, in words (empty when
+    it is the study's own run of the scenario file)."""
+    out = []
+    for key, value in settings["overrides"].items():
+        try:
+            was = _dotted(scenario.to_dict(), key)
+        except (KeyError, IndexError, TypeError):
+            was = None
+        out.append(f"{key} = {value}" + (f" (the scenario file: {was})" if was is not None
+                                          else " (set on the command line)"))
+    if not settings["reduction"]:
+        out.append("model reduction skipped (no Table 1, no Fig. 3)")
+    elif settings["reduction_maxiter"] != STUDY_REDUCTION_MAXITER:
+        out.append(f"model reduction limited to {settings['reduction_maxiter']} generations "
+                   f"(the study: {STUDY_REDUCTION_MAXITER})")
+    if settings["case"] != STUDY_CASE:
+        out.append(f"base case {settings['case']} (the study's Tables 5-7 and Fig. 5-9 are "
+                   f"for {STUDY_CASE})")
+    return out
+
+
+def _dotted(data, key: str):
+    for part in key.split("."):
+        data = data[int(part)] if isinstance(data, list) else data[part]
+    return data
+
+
+def _check_output(out: Path, settings: dict, force: bool) -> None:
+    """Refuse to mix a new study into a folder that holds another report (or other
+    files), unless ``force``; checked before any work is done."""
+    if out.exists() and not out.is_dir():
+        raise ScenarioError("--output", [("", f"{out} is a file, not a folder")])
+    manifest = out / MANIFEST
+    if not out.is_dir() or force:
+        return
+    try:
+        old = json.loads(manifest.read_text())
+    except FileNotFoundError:
+        old = None
+    except (OSError, ValueError):
+        old = {}
+    if old is None:
+        if any(out.iterdir()):
+            raise ScenarioError("--output", [("", f"{out} is not empty and holds no ltdsim "
+                                                  "study; choose an empty or new folder, or "
+                                                  "add --force to write into it")])
+        return
+    what = [k for k in settings if k != "scenario_sha256" and old.get(k) != settings[k]]
+    if what:
+        raise ScenarioError("--output", [("", f"{out} holds a report made with other "
+                                              f"settings ({', '.join(what)} differ); keep it "
+                                              "by choosing another --output, or replace it "
+                                              "with --force")])
 
 
 # ------------------------------------------------------------------------- stages
@@ -106,7 +177,8 @@ def _stage_base(out, cache, scenario: Scenario):
     from ltdsim.phases import critical_couplers, phase_figures, phase_norms, traction_check
     from ltdsim.plotting import save_overview
     from ltdsim.simulate import simulate
-    from ltdsim.spectra import phase_spectra, spectra_figures
+    from ltdsim.spectra import band_share, phase_spectra, spectra_figures
+    from ltdsim.summary import coupler_summary, run_summary
 
     nc_path = out / "base_case.nc"
     figs = [out / "fig4_speed_tracking.png", out / "fig5_relative_motion.png",
@@ -121,64 +193,95 @@ def _stage_base(out, cache, scenario: Scenario):
     save_overview(ds, figs[0])
     phase_figures(ds, out, scenario)
     norms = phase_norms(ds, scenario)
-    ranking = critical_couplers(norms, by="rms")
     nc = ds.sizes["coupler"]
-    critical = sorted({int(ranking.query("rank == 1").coupler.mode().iloc[0]), 0,
-                       max(nc - 2, 0), nc - 1})
+    # the study's couplers 1, 8 and 9: the first and the last two (0-based indices here)
+    critical = sorted({0, max(nc - 2, 0), nc - 1})
     spectra_figures(ds, out, scenario, critical)
     value = {
         "norms": {k: v.values.tolist() for k, v in norms.data_vars.items()},
         "phases": [str(p) for p in norms.phase.values],
-        "ranking": ranking.to_dict(orient="records"),
+        "ranking_rms": critical_couplers(norms, by="rms").to_dict(orient="records"),
+        "ranking_peak": critical_couplers(norms, by="infnorm").to_dict(orient="records"),
         "traction_check": traction_check(ds, scenario).to_dict(orient="records"),
         "spectra": phase_spectra(ds, scenario, critical).to_dict(orient="records"),
+        "spectral_share_below_4hz": band_share(ds, scenario, critical, 4.0, 10.0),
         "critical": critical,
+        "couplers": coupler_summary(ds).reset_index().to_dict(orient="records"),
+        "summary": run_summary(ds),
+        "max_abs_acceleration_m_s2": abs(ds.acceleration).max("time").values.tolist(),
         "samples": int(ds.sizes["time"]),
     }
     return cache.put("base", key, value, [nc_path, *figs])
 
 
 def _stage_modal(out, cache, scenario: Scenario):
-    from ltdsim.modal import save_mode_shapes, train_modes
+    """Modes of the base case at the low (k1) and high (k2 + k3) stiffness, free and with
+    the locomotive held, and the bands of the softest and stiffest couplings among the
+    scenario's cases (the widest the study's parameter space allows)."""
+    from ltdsim.modal import coupling_stiffness, save_mode_shapes, train_modes
 
+    series = 2  # a draft gear at each wagon end: two gears in series per coupling
     key = _key("modal", scenario.to_dict())
     files = [out / "fig8_modes_low.png", out / "fig8_modes_high.png"]
     hit = cache.get("modal", key)
     if hit is not None:
         return hit
-    value = {}
+    value = {"series": series}
     for which, fig in zip(("low", "high"), files):
         try:
-            free = train_modes(scenario, which, 2, "free")
-            held = train_modes(scenario, which, 2, "held")
+            free = train_modes(scenario, which, series, "free")
+            held = train_modes(scenario, which, series, "held")
+            k = coupling_stiffness(scenario, which, series)
         except ValueError as exc:  # couplers without k1/k2/k3
             value[which] = {"error": str(exc)}
             continue
-        save_mode_shapes(free, fig, title=f"Fig. 8: modes with {which} stiffness, 2 gears "
-                                          "per coupling")
-        value[which] = {"free": free.frequency_hz.tolist(), "held": held.frequency_hz.tolist()}
+        label = {"low": "k1", "high": "k2 + k3"}[which]
+        save_mode_shapes(free, fig, title=f"{which} stiffness ({label} = "
+                                          f"{k[0] * series / 1e6:.2f} MN/m per gear, "
+                                          f"{series} gears per coupling)")
+        value[which] = {"free": free.frequency_hz.tolist(), "held": held.frequency_hz.tolist(),
+                        "coupling_stiffness_N_m": float(k[0])}
+    gears = [scenario.with_case(c).coupler(0) for c in scenario.cases] or [scenario.coupler(0)]
+    if all(g.model == "simplified" for g in gears):
+        for which, k in (("low", min(g.k1 for g in gears)),
+                         ("high", max(g.k2 + g.k3 for g in gears))):
+            f = train_modes(scenario, k, series, "free").frequency_hz.values
+            value[f"widest_{which}"] = {"gear_stiffness_N_m": k, "band_hz": [f[1], f[-1]]}
     return cache.put("modal", key, value, [f for f in files if f.is_file()])
 
 
 # ------------------------------------------------------------------------- driver
-def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: str = "LHHL",
+def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: str = STUDY_CASE,
               overrides: dict | None = None, reduction: bool = True,
-              reduction_maxiter: int = 1000, workers: int | None = None,
-              progress: Progress | None = None) -> Path:
+              reduction_maxiter: int = STUDY_REDUCTION_MAXITER, workers: int | None = None,
+              progress: Progress | None = None, force: bool = False) -> Path:
     """Run every stage and write ``<out>/index.html``; returns its path.
 
     ``overrides`` (dotted keys) apply to every case (e.g. a shorter ``solver.t_end`` for
-    a quick look); ``case`` is the base case for phases, spectra and modes.
+    a quick look); ``case`` is the base case for phases, spectra and modes. A folder that
+    holds a report made with other settings is refused (``ScenarioError`` naming
+    ``--output``) unless ``force``; the check comes before any work.
     """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    cache = _Cache(out)
-    say = progress or (lambda stage, msg: None)
+    scenario_path = Path(scenario_path)
     base = load_scenario(scenario_path)
     if overrides:
         base = base.with_overrides(overrides)
+    if base.cases and case not in base.cases:
+        raise ScenarioError(str(scenario_path), [("--case", f"unknown case {case!r}; "
+                                                            f"available: {', '.join(base.cases)}")])
+    settings = study_settings(scenario_path, case, overrides, reduction, reduction_maxiter)
+    _check_output(out, settings, force)
+    out.mkdir(parents=True, exist_ok=True)
+    if force:  # a stale page must never sit beside the new run's files
+        (out / "index.html").unlink(missing_ok=True)
+    with atomic_path(out / MANIFEST) as tmp:
+        tmp.write_text(json.dumps(settings, indent=1))
+    cache = _Cache(out)
+    say = progress or (lambda stage, msg: None)
     base_case = base.with_case(case) if case in base.cases else base
-    results = {}
+    results = {"settings": settings,
+               "deviations": deviations(settings, load_scenario(scenario_path))}
     if reduction:
         say("reduction", "fitting the simplified coupler to the friction gears")
         results["reduction"] = _stage_reduction(out, cache, reduction_maxiter, workers or -1)
@@ -191,24 +294,4 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     say("report", "writing index.html")
     from ltdsim.report import write_report
 
-    return write_report(out, results, base_case, case, Path(scenario_path))
-
-
-def figure_html(path: Path, caption: str) -> str:
-    """An ``<figure>`` with the PNG embedded (base64), so the page works offline."""
-    data = base64.b64encode(Path(path).read_bytes()).decode()
-    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
-
-
-def table_html(df: pd.DataFrame, digits: int = 4) -> str:
-    def fmt(v):
-        if isinstance(v, (float, np.floating)):
-            return "" if not np.isfinite(v) else f"{v:.{digits}g}"
-        return html.escape(str(v))
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
-    body = "".join("<tr>" + "".join(f"<td>{fmt(v)}</td>" for v in row) + "</tr>"
-                   for row in df.itertuples(index=False))
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
-
-
+    return write_report(out, results, base_case, case, scenario_path)

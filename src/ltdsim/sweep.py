@@ -66,9 +66,11 @@ class Sweep:
 
 
 def fingerprint(scenario: Scenario, extras=()) -> str:
-    """Content hash of a scenario and the analyses asked for (what a finished case
-    record was computed from)."""
-    text = json.dumps([scenario.to_dict(), sorted(extras)], sort_keys=True)
+    """Content hash of a scenario, the analyses asked for and the code that computes
+    them (what a finished case record was computed from)."""
+    from ltdsim._provenance import code_hash
+
+    text = json.dumps([scenario.to_dict(), sorted(extras), code_hash()], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -217,7 +219,7 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
         except ValueError:
             record["phase_norms"], record["phases"] = {}, []
         if "sysid" in extras:
-            record["sysid"] = _sysid_record(ds)
+            record["sysid"] = _sysid_record(ds, sc)
         if "spectra" in extras:
             from ltdsim.spectra import phase_spectra
 
@@ -233,22 +235,35 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
     return record
 
 
-def _sysid_record(ds) -> dict:
+def _sysid_record(ds, scenario: Scenario) -> dict:
+    """Identification of the first wagon's acceleration from the locomotive force per
+    unit of train mass (so a rigid train's transfer function is 1, as the study's
+    Appendix II models are at 0 Hz), at 10 ms, with its step and ramp metrics; and the
+    same metrics of the physical step response (:func:`ltdsim.experiments.force_step`)."""
+    from ltdsim.experiments import force_step, step_info
     from ltdsim.identify import identify_result, prediction_fit
     from ltdsim.response import ramp_error, step_metrics
 
-    m = identify_result(ds, resample_dt=0.01)
-    u = ds.traction_force.values
+    mass = sum(v.mass for v in scenario.vehicles)
+    ds = ds.assign(force_per_mass=ds.traction_force / mass)
+    m = identify_result(ds, input_var="force_per_mass", resample_dt=0.01)
+    u = ds.force_per_mass.values
     y = ds.acceleration.values[:, 1] if ds.sizes["vehicle"] > 1 else ds.acceleration.values[:, 0]
     info = step_metrics(m.tf())
+    dc = float(np.sum(m.b) / np.sum(m.a))
+    t, r = force_step(scenario, output=1 if ds.sizes["vehicle"] > 1 else 0)
     return {"sample_time_s": m.dt, "numerator": m.b.tolist(), "denominator": m.a.tolist(),
+            "input": "locomotive force / train mass, m/s^2",
+            "dc_gain": dc,
             "fpe": m.fpe, "mse": m.mse, "fit_percent": m.fit_percent,
             "prediction_fit_percent": m.prediction_fit_percent,
             "prediction_fit_percent_record_dt": prediction_fit(u, y),
             "evaluations": m.evaluations, "cost": m.cost, "norm_of_step": m.step_norm,
             "first_order_optimality": m.optimality,
             "step": {k: float(v) for k, v in info.items()},
-            "ramp_error": ramp_error(m.tf())}
+            # the lag of the ramp response once the model is scaled to unit DC gain, s
+            "ramp_error": ramp_error(m.tf() / dc) if dc else float("inf"),
+            "force_step": step_info(t, r)}
 
 
 # ------------------------------------------------------------------------ sweeps

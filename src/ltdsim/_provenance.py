@@ -1,0 +1,25 @@
+"""Which version of ltdsim's code computed a cached result."""
+
+from __future__ import annotations
+
+import hashlib
+from functools import cache
+from pathlib import Path
+
+from ltdsim import __version__
+
+#: modules that only present results: editing them changes no computed number
+PRESENTATION = ("report.py", "cli.py")
+
+
+@cache
+def code_hash() -> str:
+    """Hash (16 hex digits) of the version and of every source file that computes
+    results, so caches written by other code are recomputed, not trusted."""
+    here = Path(__file__).parent
+    h = hashlib.sha256(__version__.encode())
+    for path in sorted(here.rglob("*.py")):
+        if path.name not in PRESENTATION:
+            h.update(str(path.relative_to(here)).encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()[:16]
