@@ -513,7 +513,8 @@ class Scenario(_Strict):
     brake: Brake = Brake()
     driver: Driver = Driver(mode="force")
     initial: Initial = Initial()
-    phases: list[Phase] = Field(default_factory=lambda: [Phase(**p) for p in STUDY_PHASES])
+    # analysis windows; none given: the whole run is one phase (ltdsim.phases.phases_of)
+    phases: list[Phase] = []
     cases: dict[str, CaseOverrides] = {}
     case: str | None = Field(None, description="name of the applied case, if any")
 
@@ -539,6 +540,9 @@ class Scenario(_Strict):
         if vel is not None and len(vel) != n:
             raise ValueError(f"initial.velocities has {len(vel)} values for {n} vehicles")
         self._check_locomotives(n)
+        names = [p.name for p in self.phases]
+        if len(set(names)) != len(names):
+            raise ValueError(f"phases: names must differ, got {names}")
         if self.driver.brakes_commanded and not any(v.brake for v in self.vehicles):
             raise ValueError("driver: brake commands given but no vehicle has a [brake] table")
         pid = self.driver.pid
