@@ -550,7 +550,7 @@ def reduce(
 
 
 CaseOpt = Annotated[Optional[str], typer.Option(
-    "--case", "-c", help="named case of the scenario file ([cases.NAME]) to apply")]
+    "--case", "-c", help="named case of the scenario file (its cases.NAME table) to apply")]
 SetOpt = Annotated[Optional[list[str]], typer.Option("--set", "-s", help=SET_HELP)]
 QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")]
 
@@ -659,7 +659,8 @@ def phases(
 ) -> None:
     """Phase norms (study Table 5), critical couplers, traction check and Fig. 5-7.
 
-    The phases are the scenario's [[phases]]; without them the whole run is one phase."""
+    The phases are the scenario's phases tables; without them the whole run is one
+    phase."""
     from ltdsim.phases import critical_couplers, phase_figures, traction_check
 
     try:
