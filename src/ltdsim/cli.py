@@ -235,7 +235,8 @@ def run(
 
     try:
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
-        _check_output(plot, "--plot", image_suffixes(), inputs=(file, output))
+        if plot is not None:  # (matplotlib only when a figure is asked for)
+            _check_output(plot, "--plot", image_suffixes(), inputs=(file, output))
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
