@@ -60,7 +60,7 @@ def test_output_interval_must_be_a_whole_number_of_steps(tmp_path):
 
 def test_coupler_override_index_out_of_range(tmp_path):
     msg = load_error(tmp_path, EXAMPLE.replace("index = 3", "index = 4"))
-    assert "couplers.override.0.index = 4" in msg and "couplers 0 to 3" in msg
+    assert "couplers.override.0.index = 4" in msg and "coupler indices 0 to 3" in msg
 
 
 def test_unknown_case_lists_the_available_ones(tmp_path, paper_path):

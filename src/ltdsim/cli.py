@@ -6,6 +6,7 @@ from the library.
 
 from __future__ import annotations
 
+import os
 import sys
 import tomllib
 from pathlib import Path
@@ -16,6 +17,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
+from rich.text import Text
 
 from ltdsim.errors import LtdsimError, ScenarioError, SimulationError
 
@@ -25,8 +27,29 @@ console = Console()
 err_console = Console(stderr=True)
 
 
+def package_version() -> str:
+    """The installed package's version (its metadata), else ``ltdsim.__version__``."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("ltdsim")
+    except metadata.PackageNotFoundError:
+        from ltdsim import __version__
+
+        return __version__
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        console.print(f"ltdsim {package_version()}", markup=False, highlight=False)
+        raise typer.Exit()
+
+
 @app.callback()
-def _main() -> None:
+def _main(
+    version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True,
+                                          help="print the version of ltdsim and exit")] = False,
+) -> None:
     """ltdsim: longitudinal train dynamics simulation and analysis."""
 
 
@@ -49,49 +72,159 @@ def parse_set(items: list[str]) -> dict:
     return out
 
 
-def _result_or_scenario(file: Path, case: Optional[str], run: bool = True):
+SET_HELP = ("override a scenario key, e.g. solver.t_end=10 (TOML value; repeat for more "
+            "keys; indices count from 0 as in the file)")
+
+
+def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
+                        overrides: Optional[list[str]] = None, quiet: bool = False):
     """``(dataset, scenario)`` from a saved result (.nc; its scenario from the attributes)
-    or from a scenario file (simulated when ``run``)."""
+    or from a scenario file with ``--set`` overrides (simulated when ``run``, with a
+    progress bar unless ``quiet``). A saved result is not simulated again, so ``--set``
+    and a ``--case`` other than the result's are refused."""
     import json
 
     from ltdsim.io import load_result
     from ltdsim.scenario import Scenario, load_scenario
-    from ltdsim.simulate import simulate
 
     if file.suffix == ".nc":
-        ds = load_result(file)
-        return ds, Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), str(file))
+        if overrides:
+            raise ScenarioError("--set", [("", f"{file} is a saved result, not simulated "
+                                               "again; give the scenario file to change it")])
+        try:
+            ds = load_result(file)
+            saved = json.loads(ds.attrs["scenario_json"])
+        except FileNotFoundError:
+            raise ScenarioError(str(file), [("", "file not found")]) from None
+        except (OSError, ValueError, KeyError) as exc:
+            raise ScenarioError(str(file), [("", "not a result written by ltdsim (netCDF with "
+                                                 f"its scenario): {exc}")]) from None
+        held = ds.attrs.get("case") or None
+        if case is not None and case != held:
+            raise ScenarioError("--case", [("", f"{file} is a saved result of case "
+                                                f"{held or '(none)'}; --case chooses a case of "
+                                                "a scenario file")])
+        return ds, Scenario.from_dict(saved, str(file))
     sc = load_scenario(file, case=case)
-    return (simulate(sc) if run else None), sc
+    if overrides:
+        sc = sc.with_overrides(parse_set(overrides), source="--set")
+    return (_simulate(sc, quiet) if run else None), sc
+
+
+def _label(sc) -> str:
+    """Scenario name and case as plain text, e.g. ``heavy-haul [emergency]``."""
+    return sc.name + (f" [{sc.case}]" if sc.case else "")
+
+
+def _simulate(sc, quiet: bool = False):
+    """Simulate ``sc`` with a progress bar of simulated seconds on stderr."""
+    from ltdsim.simulate import simulate
+
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                  TextColumn("{task.completed:.1f}/{task.total:.1f} s simulated"),
+                  TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,
+                  disable=quiet, transient=False) as prog:
+        task = prog.add_task(escape(f"simulating {_label(sc)}"),
+                             total=sc.solver.n_steps * sc.solver.dt)
+        return simulate(sc, progress=lambda done, total: prog.update(task, completed=done))
 
 
 def _fail(exc: LtdsimError) -> None:
     kind = "invalid input" if isinstance(exc, ScenarioError) else "simulation failed"
-    err_console.print(f"[bold red]error ({kind}):[/] {exc}", highlight=False, soft_wrap=True)
+    # the message is plain text: "[brake]" or "[emergency]" must not be read as markup
+    err_console.print(f"[bold red]error ({kind}):[/] {escape(str(exc))}", highlight=False,
+                      soft_wrap=True)
     raise typer.Exit(2 if isinstance(exc, ScenarioError) else 3)
 
 
+def _say(text: str) -> None:
+    """Print a line of plain text (no markup: names and paths may hold brackets)."""
+    console.print(text, markup=False, highlight=False, soft_wrap=True)
+
+
+#: result files ``-o/--output`` writes (netCDF-4, readable by MATLAB, Python, Julia, R)
+RESULT_SUFFIXES = (".nc",)
+
+
+def image_suffixes() -> tuple[str, ...]:
+    """Figure formats matplotlib can write here (``.png``, ``.svg``, ``.pdf``, ...)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    return tuple(f".{k}" for k in sorted(FigureCanvasAgg.get_supported_filetypes()))
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists()
+                                              and os.path.samefile(a, b))
+    except OSError:
+        return False
+
+
+def _check_output(path: Optional[Path], option: str, suffixes, inputs=()) -> None:
+    """Refuse, before any work, an output file that is one of the ``inputs`` or whose
+    suffix is not one of ``suffixes`` (what ltdsim writes under that option)."""
+    if path is None:
+        return
+    for given in inputs:
+        if given is not None and _same_file(path, Path(given)):
+            raise ScenarioError(option, [("", f"{path} is an input of this command; ltdsim "
+                                              "never writes over its input: choose another "
+                                              "path")])
+    if path.suffix.lower() not in suffixes:
+        what = f"suffix {path.suffix!r}" if path.suffix else "a file name without a suffix"
+        kinds = {".nc": ".nc (netCDF-4)"}
+        raise ScenarioError(option, [("", f"cannot write {what} ({path}); accepted: "
+                                          f"{', '.join(kinds.get(x, x) for x in suffixes)}")])
+    if path.is_dir():
+        raise ScenarioError(option, [("", f"{path} is a folder; give a file name")])
+
+
+def _check_folder(path: Path, option: str = "--output") -> None:
+    """Refuse, before any work, an output folder that exists as a file."""
+    if path.exists() and not path.is_dir():
+        raise ScenarioError(option, [("", f"{path} is a file, not a folder; give a folder "
+                                          "for the tables and figures")])
+
+
+def _csv(frame, path: Path, index: bool = False) -> None:
+    """Write a table as CSV, atomically, with at most 6 significant figures."""
+    from ltdsim.io import atomic_path
+
+    with atomic_path(path) as tmp:
+        frame.to_csv(tmp, index=index, float_format="%.6g")
+
+
+#: the CLI's header of coupler and vehicle numbers (people count from 1)
+COUPLER_COL = "coupler (1 = behind the lead)"
+VEHICLE_COL = "vehicle (1 = lead)"
+
 
 def _table(title: str, columns, justify: str = "right") -> Table:
-    """A rich table whose title and column headers stay plain text: rich would read
-    "[kN]", "[m/s]" or a case name like "[emergency]" as markup and drop it. The first
-    column of two-column (quantity, value) tables is left-aligned."""
-    table = Table(title=escape(title))
+    """A rich table whose title, column headers and cells stay plain text: rich would
+    read "[kN]", "[m/s]" or a case name like "[emergency]" as markup and drop it. The
+    first column of two-column (quantity, value) tables is left-aligned."""
+    table = _PlainTable(title=Text(title))
     for k, col in enumerate(columns):
         align = "left" if len(columns) == 2 and k == 0 else justify
-        table.add_column(escape(col), justify=align)
+        table.add_column(Text(col), justify=align)
     return table
+
+
+class _PlainTable(Table):
+    def add_row(self, *cells, **kw) -> None:
+        super().add_row(*(Text(c) if isinstance(c, str) else c for c in cells), **kw)
+
 
 @app.command()
 def run(
     file: Annotated[Path, typer.Argument(help="scenario file (TOML)")],
     case: Annotated[Optional[str], typer.Option("--case", "-c", help="named case to apply")] = None,
-    output: Annotated[Optional[Path], typer.Option("--output", "-o",
-                                                   help="write the result as netCDF")] = None,
-    plot: Annotated[Optional[Path], typer.Option("--plot", "-p",
-                                                 help="write an overview figure (PNG/SVG/PDF)")] = None,
-    set_: Annotated[Optional[list[str]], typer.Option("--set", "-s",
-                                                      help="override, e.g. solver.t_end=10")] = None,
+    output: Annotated[Optional[Path], typer.Option(
+        "--output", "-o", help="write the result as netCDF-4 (a .nc file)")] = None,
+    plot: Annotated[Optional[Path], typer.Option(
+        "--plot", "-p", help="write an overview figure (.png, .svg, .pdf, ...)")] = None,
+    set_: Annotated[Optional[list[str]], typer.Option("--set", "-s", help=SET_HELP)] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
 ) -> None:
     """Simulate one scenario (optionally one named case) and summarise coupler forces."""
@@ -101,15 +234,19 @@ def run(
     from ltdsim.summary import coupler_summary, critical_rows, run_summary
 
     try:
+        _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
+        if plot is not None:  # (matplotlib only when a figure is asked for)
+            _check_output(plot, "--plot", image_suffixes(), inputs=(file, output))
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
-        label = escape(f"{sc.name}" + (f" [{sc.case}]" if sc.case else ""))  # see _table
+        label = _label(sc)  # plain text: _table keeps it so; markup gets it escaped
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(),
                       TextColumn("{task.completed:.1f}/{task.total:.1f} s simulated"),
                       TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,
                       disable=quiet, transient=False) as prog:
-            task = prog.add_task(f"simulating {label}", total=sc.solver.n_steps * sc.solver.dt)
+            task = prog.add_task(escape(f"simulating {label}"),
+                                 total=sc.solver.n_steps * sc.solver.dt)
             ds = simulate(sc, progress=lambda done, total: prog.update(task, completed=done))
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
@@ -120,15 +257,15 @@ def run(
     title = f"Coupler forces: {label}"
     if len(shown) < len(summary):
         title += f" (the {len(shown)} most loaded of {len(summary)} couplers)"
-    table = _table(title, ("coupler", "max tension [kN]", "at [s]", "max compression [kN]",
+    table = _table(title, (COUPLER_COL, "max tension [kN]", "at [s]", "max compression [kN]",
                            "at [s]"))
     for j, row in shown.iterrows():
-        table.add_row(str(j), f"{row.max_tension_N / 1e3:.1f}", f"{row.t_max_tension_s:.2f}",
-                      f"{row.max_compression_N / 1e3:.1f}", f"{row.t_max_compression_s:.2f}")
+        table.add_row(str(j + 1), *_peak(row.max_tension_N, row.t_max_tension_s),
+                      *_peak(row.max_compression_N, row.t_max_compression_s))
     console.print(table)
     s = run_summary(ds)
-    tracking = (f"RMS speed error {s['rms_speed_error_m_s']:.4f} m/s "
-                f"(max {s['max_speed_error_m_s']:.3f}); "
+    tracking = (f"RMS speed error {_speed(s['rms_speed_error_m_s'], 4)}, "
+                f"max {_speed(s['max_speed_error_m_s'], 3)}; "
                 if s["rms_speed_error_m_s"] == s["rms_speed_error_m_s"] else "")
     console.print(
         f"{tracking}max |acceleration| {s['max_abs_acceleration_m_s2']:.3f} m/s^2; "
@@ -139,14 +276,44 @@ def run(
            if sc.solver.adaptive else "")
         + f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
+    _print_motion(ds)
     if output is not None:
         save_result(ds, output)
-        console.print(f"result written to {output}")
+        _say(f"result written to {output}")
     if plot is not None:
         from ltdsim.plotting import save_overview
 
         save_overview(ds, plot)
-        console.print(f"figure written to {plot}")
+        _say(f"figure written to {plot}")
+
+
+def _speed(v: float, digits: int = 1) -> str:
+    """A speed in m/s with km/h beside it."""
+    return f"{v:.{digits}f} m/s ({3.6 * v:.{digits}f} km/h)"
+
+
+def _peak(force: float, time: float) -> tuple[str, str]:
+    """A peak force (kN) and its time (s), or dashes where there was none (0 N: a coupler
+    never in compression, or never in tension)."""
+    if not force > 0.0:
+        return "-", "-"
+    return f"{force / 1e3:.1f}", f"{time:.2f}"
+
+
+def _print_motion(ds) -> None:
+    """The lead vehicle's top and final speed and, for a run that brakes to a stop, the
+    stopping distance and time (ltdsim.summary.stopping)."""
+    from ltdsim.summary import speeds, stopping
+
+    v = speeds(ds)
+    _say(f"lead vehicle: top speed {_speed(v['max_speed_m_s'])}, final speed "
+         f"{_speed(v['final_speed_m_s'])}")
+    stop = stopping(ds)
+    if stop is not None:
+        _say(f"stopped in {stop['stopping_distance_m']:.1f} m and {stop['stopping_time_s']:.1f} s "
+             f"from {_speed(stop['speed_m_s'])}, counted from the brake application at "
+             f"{stop['brake_time_s']:.2f} s (the first brake command or dynamic-brake demand "
+             "after the last traction demand; lead vehicle)")
 
 
 gear_app = typer.Typer(no_args_is_help=True, help="A single draft gear: loops and impacts.")
@@ -167,26 +334,29 @@ def _gear_params(preset: Optional[str], scenario: Optional[Path], coupler: int):
         except ValidationError as exc:
             raise ScenarioError("--preset", _problems(exc)) from None
     sc = load_scenario(scenario)
-    if not 0 <= coupler < sc.n_couplers:
-        raise ScenarioError(str(scenario), [("--coupler", f"{coupler} out of range 0-"
-                                                          f"{sc.n_couplers - 1}")])
-    return sc.coupler(coupler)
+    if not 1 <= coupler <= sc.n_couplers:
+        raise ScenarioError("--coupler", [("", f"coupler {coupler} is out of range 1-"
+                                               f"{sc.n_couplers} for {scenario} (1 = behind "
+                                               "the lead)")])
+    return sc.coupler(coupler - 1)
 
 
 PresetOpt = Annotated[Optional[str], typer.Option("--preset", help="gear parameter set")]
 ScenarioOpt = Annotated[Optional[Path], typer.Option("--scenario", help="take a coupler "
                                                                          "from this file")]
-CouplerOpt = Annotated[int, typer.Option("--coupler", help="coupler index in --scenario")]
+CouplerOpt = Annotated[int, typer.Option("--coupler", help="coupler number in --scenario, "
+                                                           "1 = behind the lead (1 to n-1)")]
 
 
 @gear_app.command("loop")
 def gear_loop(
-    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 0,
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 1,
     amplitude: Annotated[float, typer.Option(help="peak gear deflection beyond slack, m")] = 0.08,
     period: Annotated[float, typer.Option(help="period of one cycle, s")] = 10.0,
     cycles: Annotated[int, typer.Option(help="number of cycles")] = 2,
     buff: Annotated[bool, typer.Option(help="compress (buff) instead of stretching")] = False,
-    plot: Annotated[Path, typer.Option("--plot", "-p", help="figure file")] = Path(
+    plot: Annotated[Path, typer.Option("--plot", "-p", help="figure file (.png, .svg, "
+                                                            ".pdf, ...)")] = Path(
         "results/gear-loop.png"),
 ) -> None:
     """Cycle one gear through a prescribed deflection and plot its force-deflection loop."""
@@ -195,6 +365,7 @@ def gear_loop(
     from ltdsim.gear import drive_deflection, loop_energy
 
     try:
+        _check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
         params = _gear_params(preset, scenario, coupler)
     except ScenarioError as exc:
         _fail(exc)
@@ -209,12 +380,12 @@ def gear_loop(
     from ltdsim.plotting import save_gear_loop
 
     save_gear_loop(ds, plot, title=f"{preset or scenario} ({params.model})")
-    console.print(f"figure written to {plot}")
+    _say(f"figure written to {plot}")
 
 
 @gear_app.command("impact")
 def gear_impact(
-    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 0,
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 1,
     speeds: Annotated[str, typer.Option(help="impact speeds, m/s, comma separated")] = "0.5,1,1.5,2,2.5,3",
     mass: Annotated[float, typer.Option(help="mass of each wagon, kg")] = 90000.0,
     csv: Annotated[Optional[Path], typer.Option(help="write the table as CSV")] = None,
@@ -225,6 +396,7 @@ def gear_impact(
     from ltdsim.gear import impact
 
     try:
+        _check_output(csv, "--csv", (".csv",), inputs=(scenario,))
         params = _gear_params(preset, scenario, coupler)
         values = [float(v) for v in speeds.split(",") if v.strip()]
     except ScenarioError as exc:
@@ -247,11 +419,8 @@ def gear_impact(
                       f"{r['energy_absorbed_J'] / rel_ke:.0%}")
     console.print(table)
     if csv is not None:
-        from ltdsim.io import atomic_path
-
-        with atomic_path(csv) as tmp:
-            pd.DataFrame(rows).to_csv(tmp, index=False)
-        console.print(f"table written to {csv}")
+        _csv(pd.DataFrame(rows), csv)
+        _say(f"table written to {csv}")
 
 
 @gear_app.command("ratings")
@@ -276,6 +445,12 @@ def gear_ratings(
     from ltdsim.scenario import CouplerParams
 
     try:
+        _check_output(toml, "--toml", (".toml",))
+        _check_output(plot, "--plot", image_suffixes())
+    except ScenarioError as exc:
+        _fail(exc)
+        return
+    try:
         gear = table_from_ratings(travel, force, capacity, absorptivity, preload=preload,
                                   series=series)
     except ValueError as exc:
@@ -292,22 +467,22 @@ def gear_ratings(
     taken, absorbed = loop_energy(closing), loop_energy(ds)
     table = _table("Table gear from ratings (rig: one slow closing and release)",
                    ("quantity", "asked", "gear on the rig"))
-    table.add_row(escape("force at travel [kN]"), f"{force / 1e3:.1f}",
+    table.add_row("force at travel [kN]", f"{force / 1e3:.1f}",
                   f"{float(ds.force.max()) / 1e3:.1f}")
-    table.add_row(escape("travel [mm]"), f"{series * travel * 1e3:.1f}",
+    table.add_row("travel [mm]", f"{series * travel * 1e3:.1f}",
                   f"{float(ds.deflection.max()) * 1e3:.1f}")
-    table.add_row(escape("capacity [kJ]"), f"{series * capacity / 1e3:.2f}",
+    table.add_row("capacity [kJ]", f"{series * capacity / 1e3:.2f}",
                   f"{taken / 1e3:.2f}")
-    table.add_row(escape("absorptivity [%]"), f"{absorptivity:.1%}",
+    table.add_row("absorptivity [%]", f"{absorptivity:.1%}",
                   f"{absorbed / taken:.1%}")
-    table.add_row(escape("loading exponent n [-]"), "", f"{gear['exponent']:.3f}")
-    table.add_row(escape("k_locked [N/m]"), "", f"{gear['k_locked']:.4g}")
+    table.add_row("loading exponent n [-]", "", f"{gear['exponent']:.3f}")
+    table.add_row("k_locked [N/m]", "", f"{gear['k_locked']:.4g}")
     console.print(table)
     if plot is not None:
         from ltdsim.plotting import save_gear_loop
 
         save_gear_loop(ds, plot, title="table gear from ratings")
-        console.print(f"figure written to {plot}")
+        _say(f"figure written to {plot}")
     if toml is not None:
         from ltdsim.io import atomic_path
 
@@ -318,12 +493,12 @@ def gear_ratings(
                 "(ltdsim.gear.table_from_ratings)")
         with atomic_path(toml) as tmp:
             tmp.write_text(table_toml(gear, slack=slack, comment=note))
-        console.print(f"gear written to {toml}")
+        _say(f"gear written to {toml}")
 
 
 @app.command()
 def reduce(
-    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 0,
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 1,
     rig: Annotated[str, typer.Option(help="deflection (both gears follow the same motion) "
                                           "or force (a mass pushed by the study's forces)")
                    ] = "deflection",
@@ -332,13 +507,17 @@ def reduce(
     workers: Annotated[int, typer.Option(help="parallel processes (-1: all cores)")] = -1,
     maxiter: Annotated[int, typer.Option(help="generations at most")] = 1000,
     seed: Annotated[int, typer.Option(help="random seed")] = 0,
-    plot: Annotated[Path, typer.Option("--plot", "-p")] = Path("results/reduction.png"),
+    plot: Annotated[Path, typer.Option("--plot", "-p", help="figure file (.png, .svg, "
+                                                            ".pdf, ...)")] = Path(
+        "results/reduction.png"),
     toml: Annotated[Optional[Path], typer.Option(help="write the fitted coupler as TOML")] = None,
 ) -> None:
     """Fit the simplified coupler to a detailed gear under the study's chain of sines."""
     from ltdsim.reduce import reduce_gear
 
     try:
+        _check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
+        _check_output(toml, "--toml", (".toml",), inputs=(scenario,))
         target = _gear_params(preset, scenario, coupler)
         if rig not in ("deflection", "force"):
             raise ScenarioError("--rig", [("rig", f"must be deflection or force, got {rig!r}")])
@@ -355,20 +534,26 @@ def reduce(
     table = _table(f"Simplified coupler fitted to {preset or scenario}", ("parameter", "value"))
     units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m", "v_c": "m/s"}
     for k, v in result.parameters.items():
-        table.add_row(escape(f"{k} [{units[k]}]"), f"{v:.6g}")
-    table.add_row(escape("fit [%]"), f"{result.fit_percent:.2f}")
+        table.add_row(f"{k} [{units[k]}]", f"{v:.6g}")
+    table.add_row("fit [%]", f"{result.fit_percent:.2f}")
     table.add_row("evaluations", str(result.evaluations))
     console.print(table)
     from ltdsim.plotting import save_reduction
 
     save_reduction(result, plot, title=f"{preset or scenario}: detailed vs simplified")
-    console.print(f"figure written to {plot}")
+    _say(f"figure written to {plot}")
     if toml is not None:
         from ltdsim.io import atomic_path
 
         with atomic_path(toml) as tmp:
             tmp.write_text(result.toml(target.slack))
-        console.print(f"fitted coupler written to {toml}")
+        _say(f"fitted coupler written to {toml}")
+
+
+CaseOpt = Annotated[Optional[str], typer.Option(
+    "--case", "-c", help="named case of the scenario file (its cases.NAME table) to apply")]
+SetOpt = Annotated[Optional[list[str]], typer.Option("--set", "-s", help=SET_HELP)]
+QuietOpt = Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")]
 
 
 @app.command()
@@ -376,6 +561,9 @@ def sweep(
     file: Annotated[Path, typer.Argument(help="scenario file (its named cases) or sweep file")],
     output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
         "results/sweep"),
+    set_: Annotated[Optional[list[str]], typer.Option(
+        "--set", "-s", help="override for every case, after the case's own keys, e.g. "
+                            "solver.t_end=10 (repeat for more keys)")] = None,
     scheduler: Annotated[Optional[str], typer.Option(help="Dask scheduler, tcp://HOST:PORT")
                          ] = None,
     workers: Annotated[Optional[int], typer.Option(help="local processes (default: all cores)")
@@ -395,7 +583,10 @@ def sweep(
         _fail(ScenarioError("--best-by", [("best-by", f"one of {', '.join(sw.CRITERIA)}")]))
         return
     try:
+        _check_folder(output)
         spec = sw.load_sweep(file)
+        if set_:
+            spec = sw.with_overrides(spec, parse_set(set_))
     except ScenarioError as exc:
         _fail(exc)
         return
@@ -411,14 +602,11 @@ def sweep(
             err_console.print("[yellow]interrupted: finished cases are kept; run the same "
                               "command again to resume[/]")
             raise typer.Exit(130) from None
-    from ltdsim.io import atomic_path
-
-    with atomic_path(output / "summary.csv") as tmp:
-        summary.to_csv(tmp)
+    _csv(summary, output / "summary.csv", index=True)
     norms = sw.phase_norm_table(output, spec)
     if not norms.empty:
-        with atomic_path(output / "phase_norms.csv") as tmp:
-            norms.to_csv(tmp, index=False)
+        _csv(norms.rename(columns={"number": "coupler or vehicle (1 = lead end)"}),
+             output / "phase_norms.csv")
     table = _table(f"Sweep {file} ({len(spec.cases)} cases)",
                    ("case", "status", "RMS speed error [m/s]", "max tension [kN]",
                     "max compression [kN]", "max |a| [m/s^2]"))
@@ -432,159 +620,219 @@ def sweep(
     console.print(table)
     best = sw.best_case(summary, best_by)
     if best is None and (summary.status == "ok").any():
-        console.print(f"no case has a value for {best_by} (no speed controller?); "
-                      "choose another with --best-by")
+        _say(f"no case has a value for {best_by} (no speed controller?); "
+             "choose another with --best-by")
     if best is not None:
-        console.print(f"best case by {best_by}: [bold]{best}[/]")
+        console.print(f"best case by {best_by}: [bold]{escape(best)}[/]")
         if figures:
             from ltdsim.phases import phase_figures
-            from ltdsim.simulate import simulate
 
             sc = spec.scenario(next(c for c in spec.cases if c.id == best))
-            files = phase_figures(simulate(sc), output / "figures", sc, prefix=f"{best}_")
-            console.print(f"phase figures of {best} in {output / 'figures'} ({len(files)})")
+            files = phase_figures(_simulate(sc), output / "figures", sc, prefix=f"{best}_")
+            _say(f"phase figures of {best} in {output / 'figures'} ({len(files)})")
     failed = summary[summary.status != "ok"]
     if len(failed):
-        console.print(f"[yellow]{len(failed)} case(s) did not finish; see {output}/cases[/]")
-    console.print(f"summary written to {output / 'summary.csv'}")
+        console.print(f"[yellow]{len(failed)} case(s) did not finish; see "
+                      f"{escape(str(output))}/cases[/]")
+    _say(f"summary written to {output / 'summary.csv'}")
+
+
+def _phases_or_fail(ds, sc):
+    """Phase norms, or a ScenarioError when no declared phase overlaps the record."""
+    from ltdsim.phases import phase_norms
+
+    try:
+        return phase_norms(ds, sc)
+    except ValueError:
+        names = ", ".join(f"{p.name} {p.start:g}-{p.end:g} s" for p in sc.phases)
+        raise ScenarioError("phases", [("", f"no phase ({names}) overlaps the record "
+                                            f"(0-{float(ds.time[-1]):g} s)")]) from None
 
 
 @app.command()
 def phases(
-    file: Annotated[Path, typer.Argument(help="scenario file (TOML)")],
-    case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
+    file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
+    case: CaseOpt = None,
+    set_: SetOpt = None,
     output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
         "results/phases"),
+    quiet: QuietOpt = False,
 ) -> None:
-    """Phase norms (study Table 5), critical couplers, traction check and Fig. 5-7."""
-    from ltdsim.io import atomic_path
-    from ltdsim.phases import critical_couplers, phase_figures, phase_norms, traction_check
-    from ltdsim.scenario import load_scenario
-    from ltdsim.simulate import simulate
+    """Phase norms (study Table 5), critical couplers, traction check and Fig. 5-7.
+
+    The phases are the scenario's phases tables; without them the whole run is one
+    phase."""
+    from ltdsim.phases import critical_couplers, phase_figures, traction_check
 
     try:
-        sc = load_scenario(file, case=case)
-        ds = simulate(sc)
+        _check_folder(output)
+        ds, sc = _result_or_scenario(file, case, overrides=set_, quiet=quiet)
+        norms = _phases_or_fail(ds, sc)
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
-    norms = phase_norms(ds, sc)
     ranking = critical_couplers(norms)
     check = traction_check(ds, sc)
     output.mkdir(parents=True, exist_ok=True)
-    for name, frame in (("phase_norms_couplers.csv",
-                         norms[["coupler_force_2norm", "coupler_force_infnorm",
-                                "coupler_force_rms"]].to_dataframe()),
-                        ("phase_norms_vehicles.csv",
-                         norms[["acceleration_2norm", "acceleration_infnorm",
-                                "acceleration_rms"]].to_dataframe()),
-                        ("critical_couplers.csv", ranking), ("traction_check.csv", check)):
-        with atomic_path(output / name) as tmp:
-            frame.to_csv(tmp)
-    table = _table(f"Coupler force infinity-norm per phase [kN], {file}"
-                   + (f" [{case}]" if case else ""),
-                   ("coupler", *(str(ph) for ph in norms.phase.values)))
+
+    def long(dim, var, unit, col):
+        frame = norms[[f"{var}_{k}" for k in ("2norm", "infnorm", "rms")]].to_dataframe()
+        frame = frame.reset_index()[["phase", dim, *(f"{var}_{k}" for k in ("2norm", "infnorm",
+                                                                           "rms"))]]
+        frame[dim] = frame[dim] + 1
+        return frame.rename(columns={dim: col, **{f"{var}_{k}": f"{var}_{k}_{unit}"
+                                                  for k in ("2norm", "infnorm", "rms")}})
+
+    ranked = ranking.assign(coupler=ranking.coupler + 1).rename(columns={"coupler": COUPLER_COL})
+    for name, frame in (("phase_norms_couplers.csv", long("coupler", "coupler_force", "N",
+                                                          COUPLER_COL)),
+                        ("phase_norms_vehicles.csv", long("vehicle", "acceleration", "m_s2",
+                                                          VEHICLE_COL)),
+                        ("critical_couplers.csv", ranked), ("traction_check.csv", check)):
+        _csv(frame, output / name)
+    table = _table(f"Largest coupler force |F| per phase [kN], {file}"
+                   + (f" [{sc.case}]" if sc.case else ""),
+                   (COUPLER_COL, *(str(ph) for ph in norms.phase.values)))
     for j in norms.coupler.values:
-        table.add_row(str(j), *[f"{norms.coupler_force_infnorm.sel(phase=ph, coupler=j).item() / 1e3:.0f}"
-                                for ph in norms.phase.values])
+        table.add_row(str(j + 1), *[
+            f"{norms.coupler_force_infnorm.sel(phase=ph, coupler=j).item() / 1e3:.0f}"
+            for ph in norms.phase.values])
     console.print(table)
-    top = ranking[ranking["rank"] == 1]
-    console.print("critical coupler per phase: " + ", ".join(
-        f"{r.phase} -> {r.coupler}" for r in top.itertuples()))
+    top = ranking[ranking["rank"] == 1].set_index(["phase", "criterion"])
+    crit = _table("Critical coupler per phase: the largest force by peak (largest |F|) and "
+                  "by RMS",
+                  ("phase", "by peak: coupler", "peak [kN]", "by RMS: coupler", "RMS [kN]"))
+    for ph in norms.phase.values:
+        pk, rms = top.loc[(ph, "peak")], top.loc[(ph, "RMS")]
+        crit.add_row(str(ph), str(int(pk.coupler) + 1), f"{pk.force_N / 1e3:.0f}",
+                     str(int(rms.coupler) + 1), f"{rms.force_N / 1e3:.0f}")
+    console.print(crit)
     over = int(check.loc[check.phase == "whole run", "samples_demand_over_adhesion"].item())
-    console.print(f"samples where traction demand exceeded adhesion: {over}")
+    _say(f"samples where traction demand exceeded adhesion: {over}")
     files = phase_figures(ds, output, sc)
-    console.print(f"tables and {len(files)} figures written to {output}")
+    _say(f"tables and {len(files)} figures written to {output}")
 
 
 @app.command()
 def modal(
     file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
-    case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
+    case: CaseOpt = None,
+    set_: SetOpt = None,
     stiffness: Annotated[str, typer.Option(help="low (k1), high (k2 + k3), or N/m")] = "low",
     series: Annotated[int, typer.Option(help="gears in series per coupling")] = 2,
     output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
         "results/modal"),
 ) -> None:
     """Natural frequencies and mode shapes of the train (study Fig. 8)."""
-    from ltdsim.io import atomic_path
     from ltdsim.modal import save_mode_shapes, train_modes
 
     try:
-        _, sc = _result_or_scenario(file, case, run=False)
+        _check_folder(output)
+        _, sc = _result_or_scenario(file, case, run=False, overrides=set_)
         which = stiffness if stiffness in ("low", "high") else float(stiffness)
         table = train_modes(sc, which, series)
     except (ScenarioError, ValueError) as exc:
         _fail(exc if isinstance(exc, ScenarioError) else
               ScenarioError("--stiffness", [("stiffness", str(exc))]))
         return
-    out = _table(f"Modes of {file}" + (f" [{case}]" if case else "")
+    out = _table(f"Modes of {file}" + (f" [{sc.case}]" if sc.case else "")
                  + f", {stiffness} stiffness, {series} gear(s) per coupling",
-                 ("mode", "frequency [Hz]"))
+                 ("mode (1 = lowest)", "frequency [Hz]"))
     for i, f in enumerate(table.frequency_hz):
-        out.add_row(str(i), f"{f:.3f}")
+        out.add_row(str(i + 1), f"{f:.3f}")
     console.print(out)
     output.mkdir(parents=True, exist_ok=True)
-    with atomic_path(output / f"modes_{stiffness}.csv") as tmp:
-        table.to_csv(tmp)
+    n = table.shape[1] - 1
+    shapes = table.rename(columns={f"vehicle_{i}": f"vehicle {i + 1}" + (" (lead)" if i == 0
+                                                                           else "")
+                                   for i in range(n)})
+    shapes.index = shapes.index + 1
+    shapes.index.name = "mode (1 = lowest)"
+    _csv(shapes, output / f"modes_{stiffness}.csv", index=True)
     save_mode_shapes(table, output / f"mode_shapes_{stiffness}.png",
                      title=f"{stiffness} stiffness, {series} gear(s) per coupling")
-    console.print(f"table and mode-shape figure written to {output}")
+    _say(f"table and mode-shape figure written to {output}")
+
+
+#: the couplers the study calls critical (its numbering, 1 = behind the lead)
+STUDY_COUPLERS = (1, 8, 9)
 
 
 @app.command()
 def spectrum(
     file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
-    case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
-    couplers: Annotated[str, typer.Option(help="coupler indices, comma separated")] = "0,7,8",
+    case: CaseOpt = None,
+    set_: SetOpt = None,
+    couplers: Annotated[Optional[str], typer.Option(
+        help="coupler numbers, comma separated, 1 = behind the lead (1 to n-1); default "
+             "1,8,9, the study's critical couplers (on a shorter train the last coupler "
+             "stands in for those beyond it)")] = None,
     output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
         "results/spectra"),
+    quiet: QuietOpt = False,
 ) -> None:
     """Coupler force spectra per phase (study Tables 6-7) and a spectrogram."""
-    from ltdsim.io import atomic_path
     from ltdsim.spectra import phase_spectra, spectra_figures
 
     try:
-        which = tuple(int(c) for c in couplers.split(",") if c.strip())
-        ds, sc = _result_or_scenario(file, case)
-        bad = [c for c in which if not 0 <= c < ds.sizes["coupler"]]
-        if bad:
-            raise ScenarioError("--couplers", [("couplers", f"{bad} out of range 0-"
-                                                            f"{ds.sizes['coupler'] - 1}")])
-    except ValueError:
-        _fail(ScenarioError("--couplers", [("couplers", f"not a list of integers: {couplers!r}")]))
-        return
-    except (ScenarioError, SimulationError) as exc:
+        _check_folder(output)
+        numbers = None if couplers is None else [int(c) for c in couplers.split(",")
+                                                 if c.strip()]
+        if numbers is not None and not numbers:
+            raise ValueError
+        if file.suffix != ".nc":  # refuse bad numbers before simulating
+            from ltdsim.scenario import load_scenario
+
+            _check_couplers(numbers, load_scenario(file, case=case).n_couplers)
+        ds, sc = _result_or_scenario(file, case, overrides=set_, quiet=quiet)
+        nc = ds.sizes["coupler"]
+        _check_couplers(numbers, nc)
+        if numbers is None:
+            numbers = sorted({min(c, nc) for c in STUDY_COUPLERS})
+    except (ScenarioError, SimulationError) as exc:  # (a ScenarioError is a ValueError)
         _fail(exc)
         return
+    except ValueError:
+        _fail(ScenarioError("--couplers", [("", f"not a list of coupler numbers: {couplers!r}")]))
+        return
+    which = tuple(c - 1 for c in numbers)  # the library counts from 0
     table = phase_spectra(ds, sc, which)
     output.mkdir(parents=True, exist_ok=True)
-    with atomic_path(output / "phase_spectra.csv") as tmp:
-        table.to_csv(tmp, index=False)
+    table["coupler"] = table["coupler"] + 1
+    _csv(table.rename(columns={"coupler": COUPLER_COL}), output / "phase_spectra.csv")
     out = _table("Coupler force spectra, 0-10 Hz",
-                 ("phase", "coupler", "max [kN]", "at [Hz]", "band RMS [kN]", "main peaks"),
+                 ("phase", COUPLER_COL, "max [kN]", "at [Hz]", "band RMS [kN]", "main peaks"),
                  justify="left")
     for r in table.itertuples():
         out.add_row(r.phase, str(r.coupler), f"{r.max_N / 1e3:.1f}", f"{r.f_at_max_hz:.1f}",
                     f"{r.band_rms_N / 1e3:.1f}", r.peaks)
     console.print(out)
     files = spectra_figures(ds, output, sc, which)
-    console.print(f"table and {len(files)} figures written to {output}")
+    _say(f"table and {len(files)} figures written to {output}")
+
+
+def _check_couplers(numbers, n: int) -> None:
+    bad = [c for c in numbers or () if not 1 <= c <= n]
+    if bad:
+        raise ScenarioError("--couplers", [("", f"{', '.join(map(str, bad))} out of range "
+                                                f"1-{n} (coupler 1 is behind the lead)")])
 
 
 @app.command()
 def sysid(
     file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
-    case: Annotated[Optional[str], typer.Option("--case", "-c")] = None,
+    case: CaseOpt = None,
+    set_: SetOpt = None,
     poles: Annotated[int, typer.Option(help="number of poles")] = 4,
     zeros: Annotated[int, typer.Option(help="number of zeros (feed-through included)")] = 3,
     resample_dt: Annotated[Optional[float], typer.Option(
         help="identify at this sample time, s (default: the record's)")] = None,
     output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
         "results/sysid"),
+    quiet: QuietOpt = False,
 ) -> None:
-    """Identify the transfer function locomotive force -> first wagon acceleration
-    (study Table 3, Appendix II) and its step metrics (Table 4)."""
+    """Identify the transfer function locomotive force -> acceleration of vehicle 2, the
+    first wagon (study Table 3, Appendix II) and its step metrics (Table 4)."""
     import json
 
     from ltdsim.identify import identify_result
@@ -592,7 +840,8 @@ def sysid(
     from ltdsim.response import ramp_error, step_metrics
 
     try:
-        ds, _ = _result_or_scenario(file, case)
+        _check_folder(output)
+        ds, _ = _result_or_scenario(file, case, overrides=set_, quiet=quiet)
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
@@ -618,7 +867,7 @@ def sysid(
     output.mkdir(parents=True, exist_ok=True)
     with atomic_path(output / "sysid.json") as tmp:
         tmp.write_text(json.dumps(result, indent=2))
-    console.print(f"written to {output / 'sysid.json'}")
+    _say(f"written to {output / 'sysid.json'}")
 
 
 @app.command()

@@ -103,10 +103,11 @@ def save_mode_shapes(table: pd.DataFrame, path, title: str = ""):
     fig, ax = plt.subplots(figsize=(9, 5), constrained_layout=True)
     cmap = plt.get_cmap("viridis")
     for i, row in enumerate(shapes):
-        ax.plot(range(n), row / np.abs(row).max(), "o-", ms=3, lw=1,
+        ax.plot(range(1, n + 1), row / np.abs(row).max(), "o-", ms=3, lw=1,
                 color=cmap(i / max(len(shapes) - 1, 1)),
                 label=f"{table.frequency_hz.iloc[i]:.2f} Hz")
-    ax.set_xlabel("vehicle (0 = lead)")
+    ax.set_xlabel("vehicle (1 = lead)")
+    ax.xaxis.set_major_locator(plt.MaxNLocator(integer=True))
     ax.set_ylabel("normalised modal displacement")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, ncol=2)

@@ -1,9 +1,10 @@
 """Per-phase analyses of a result: the study's Table 5 norms, critical couplers, the
 traction-curve check (Fig. 7), and the phase figures (Fig. 5, 6, 7).
 
-A phase is a named time window (``[[phases]]`` in the scenario; by default the study's
-acceleration 0-10 s, curving 75-85 s, deceleration 120-130 s and slope climbing
-185-195 s). Norms are over the recorded samples of the window: the 2-norm
+A phase is a named time window (``[[phases]]`` in the scenario; scenarios/paper.toml
+declares the study's acceleration 0-10 s, curving 75-85 s, deceleration 120-130 s and
+slope climbing 185-195 s). A scenario without ``[[phases]]`` has one phase, the whole
+run (:data:`WHOLE_RUN`). Norms are over the recorded samples of the window: the 2-norm
 ``sqrt(sum x_k^2)`` depends on the sampling interval (the study samples every 1e-4 s;
 ltdsim records every ``output_interval``), so the RMS ``2-norm / sqrt(samples)`` is given
 beside it for comparisons across sampling rates.
@@ -21,12 +22,27 @@ import xarray as xr
 from ltdsim.physics.traction import adhesion_limit
 from ltdsim.scenario import Scenario
 
+#: name of the single phase of a scenario that declares no ``[[phases]]``
+WHOLE_RUN = "whole run"
 
-def phases_of(ds: xr.Dataset, scenario: Scenario | None = None) -> list[tuple[str, float, float]]:
-    """The phases (name, start s, end s) that overlap the record, clipped to it."""
+#: the two meanings of "critical coupler" (the largest force in a phase), each with the
+#: norm it ranks by: "peak" = the largest |force| (infinity norm), "RMS" = the RMS force
+CRITERIA = {"peak": "infnorm", "RMS": "rms"}
+
+
+def _scenario_of(ds: xr.Dataset, scenario: Scenario | None) -> Scenario:
     if scenario is None:
         scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    return scenario
+
+
+def phases_of(ds: xr.Dataset, scenario: Scenario | None = None) -> list[tuple[str, float, float]]:
+    """The phases (name, start s, end s) that overlap the record, clipped to it; for a
+    scenario without ``[[phases]]`` the whole record as one phase named ``"whole run"``."""
+    scenario = _scenario_of(ds, scenario)
     t0, t1 = float(ds.time[0]), float(ds.time[-1])
+    if not scenario.phases:
+        return [(WHOLE_RUN, t0, t1)]
     out = []
     for p in scenario.phases:
         a, b = max(p.start, t0), min(p.end, t1)
@@ -67,8 +83,24 @@ def phase_norms(ds: xr.Dataset, scenario: Scenario | None = None) -> xr.Dataset:
     return out
 
 
-def critical_couplers(norms: xr.Dataset, by: str = "infnorm") -> pd.DataFrame:
-    """Couplers ranked per phase by the ``by`` norm of their force (rank 1 = largest)."""
+def critical_couplers(norms: xr.Dataset, by: str | None = None) -> pd.DataFrame:
+    """Couplers ranked per phase by their force (rank 1 = the critical coupler).
+
+    "Critical" has two meanings, both kept (:data:`CRITERIA`): by peak, the largest
+    |force| in the phase (infinity norm: the one load that breaks a coupler), and by RMS,
+    the largest RMS force (sustained load: fatigue). With ``by=None`` both rankings,
+    labelled in column ``criterion`` ("peak" or "RMS"), with the force in ``force_N``.
+    With ``by="infnorm"`` or ``"rms"`` one ranking with the force in ``force_<by>_N``.
+    ``coupler`` is the coupler index (0 joins vehicles 0 and 1); people's coupler
+    number is ``coupler + 1``.
+    """
+    if by is None:
+        parts = []
+        for label, norm in CRITERIA.items():
+            one = critical_couplers(norms, by=norm).rename(columns={f"force_{norm}_N": "force_N"})
+            one.insert(1, "criterion", label)
+            parts.append(one)
+        return pd.concat(parts, ignore_index=True)
     f = norms[f"coupler_force_{by}"]
     rows = []
     for ph in norms.phase.values:
@@ -84,7 +116,10 @@ def traction_check(ds: xr.Dataset, scenario: Scenario | None = None) -> pd.DataF
     """Per phase (and the whole run): the largest traction and demand relative to the
     adhesion limit, and the samples where the demand exceeded adhesion (wheel-slip
     risk; the drive then delivers only the limit)."""
-    windows = [("whole run", float(ds.time[0]), float(ds.time[-1]))] + phases_of(ds, scenario)
+    scenario = _scenario_of(ds, scenario)
+    windows = [(WHOLE_RUN, float(ds.time[0]), float(ds.time[-1]))]
+    if scenario.phases:
+        windows += phases_of(ds, scenario)
     rows = []
     for name, a, b in windows:
         w = ds.sel(time=slice(a, b))
@@ -109,8 +144,7 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
     traction curve) per phase into ``folder``; returns the files."""
     from ltdsim.plotting import _save, plt
 
-    if scenario is None:
-        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    scenario = _scenario_of(ds, scenario)
     phases = phases_of(ds, scenario)
     folder = Path(folder)
     files = []
@@ -126,7 +160,7 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
         for i in range(1, nv):
             c = cmap((i - 1) / max(nv - 2, 1))
             axes[0, k].plot(w.time, w.relative_position.isel(vehicle=i) * 1e3, lw=0.8, color=c,
-                            label=f"vehicle {i}")
+                            label=f"vehicle {i + 1}")
             axes[1, k].plot(w.time, w.relative_velocity.isel(vehicle=i), lw=0.8, color=c)
         axes[0, k].set_title(name)
         axes[1, k].set_xlabel("time [s]")
@@ -134,7 +168,7 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
     axes[1, 0].set_ylabel("velocity rel. to lead [m/s]")
     if nv <= 12:
         axes[0, -1].legend(fontsize=7)
-    fig.suptitle("Vehicles relative to the lead vehicle per phase (study Fig. 5)")
+    fig.suptitle("Vehicles relative to the lead vehicle (vehicle 1) per phase (study Fig. 5)")
     files.append(_save(fig, folder / f"{prefix}fig5_relative_motion.png"))
 
     fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 7), squeeze=False, constrained_layout=True)
@@ -145,7 +179,7 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
         axes[0, k].set_title(name)
         for j in range(nc):
             axes[1, k].plot(w.time, w.coupler_force.isel(coupler=j) / 1e3, lw=0.6,
-                            color=cmap(j / max(nc - 1, 1)), label=f"coupler {j}")
+                            color=cmap(j / max(nc - 1, 1)), label=f"coupler {j + 1}")
         axes[1, k].set_xlabel("time [s]")
     axes[0, 0].set_ylabel("traction force [kN]")
     axes[1, 0].set_ylabel("coupler force [kN] (+ tension)")

@@ -68,17 +68,18 @@ def overview_figure(ds: xr.Dataset):
         cmap = plt.get_cmap("viridis")
         for j in range(nc):
             ax.plot(t, ds.coupler_force.isel(coupler=j) / 1e3, lw=0.5,
-                    color=cmap(j / max(nc - 1, 1)), label=f"coupler {j}")
+                    color=cmap(j / max(nc - 1, 1)), label=f"coupler {j + 1}")
         ax.set_ylabel("coupler force [kN]\n(+ tension)")
         if nc <= 12:
             ax.legend(loc="upper right", ncol=min(nc, 6), fontsize=7)
     else:  # a map reads better than hundreds of lines
         f = ds.coupler_force.values.T / 1e3
         lim = np.abs(f).max() or 1.0
-        mesh = ax.pcolormesh(t, ds.coupler.values, f, cmap="RdBu_r", vmin=-lim, vmax=lim,
+        mesh = ax.pcolormesh(t, ds.coupler.values + 1, f, cmap="RdBu_r", vmin=-lim, vmax=lim,
                              shading="auto", rasterized=True)
         fig.colorbar(mesh, ax=ax, label="coupler force [kN] (+ tension)")
-        ax.set_ylabel("coupler (0 = behind the lead)")
+        ax.set_ylabel("coupler (1 = behind the lead)")
+        ax.yaxis.set_major_locator(plt.MaxNLocator(integer=True))
         ax.invert_yaxis()
     ax.set_xlabel("time [s]")
     for a in axes:

@@ -513,7 +513,8 @@ class Scenario(_Strict):
     brake: Brake = Brake()
     driver: Driver = Driver(mode="force")
     initial: Initial = Initial()
-    phases: list[Phase] = Field(default_factory=lambda: [Phase(**p) for p in STUDY_PHASES])
+    # analysis windows; none given: the whole run is one phase (ltdsim.phases.phases_of)
+    phases: list[Phase] = []
     cases: dict[str, CaseOverrides] = {}
     case: str | None = Field(None, description="name of the applied case, if any")
 
@@ -539,6 +540,9 @@ class Scenario(_Strict):
         if vel is not None and len(vel) != n:
             raise ValueError(f"initial.velocities has {len(vel)} values for {n} vehicles")
         self._check_locomotives(n)
+        names = [p.name for p in self.phases]
+        if len(set(names)) != len(names):
+            raise ValueError(f"phases: names must differ, got {names}")
         if self.driver.brakes_commanded and not any(v.brake for v in self.vehicles):
             raise ValueError("driver: brake commands given but no vehicle has a [brake] table")
         pid = self.driver.pid
@@ -552,13 +556,14 @@ class Scenario(_Strict):
                 if o.index > n - 2:
                     raise ValueError(
                         f"couplers.override.{k}.index = {o.index} is out of range: "
-                        f"{n} vehicles have couplers 0 to {n - 2}")
+                        f"{n} vehicles have coupler indices 0 to {n - 2}")
             for i in range(n - 1):
                 try:
                     self.coupler(i)  # validates merged parameters
                 except ValidationError as exc:
                     text = "; ".join(m for _, m in _problems(exc))
-                    raise ValueError(f"coupler {i} (default merged with overrides): {text}") from None
+                    raise ValueError(f"coupler {i + 1} (index {i}; default merged with "
+                                     f"overrides): {text}") from None
         return self
 
     def _check_locomotives(self, n: int) -> None:
@@ -572,7 +577,7 @@ class Scenario(_Strict):
             for i in loco.vehicles:
                 where = f"locomotives.{k}.vehicles"
                 if i >= n:
-                    raise ValueError(f"{where}: vehicle {i} is out of range 0-{n - 1}")
+                    raise ValueError(f"{where}: vehicle index {i} is out of range 0-{n - 1}")
                 if not self.vehicles[i].powered:
                     raise ValueError(f"{where}: vehicle {i} ({self.vehicles[i].name!r}) "
                                      "is not powered")

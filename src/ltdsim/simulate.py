@@ -190,15 +190,16 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) 
         parts = [f"simulation state became non-finite at t = {t:.6g} s "
                  f"(step {round(t / low.dt)})"]
     if i is not None:
-        parts.append(f"vehicle {i} ({scenario.vehicles[i].name!r}): displacement = {x[i]:.6g} m, "
-                     f"velocity = {v[i]:.6g} m/s")
+        parts.append(f"vehicle {i + 1} ({scenario.vehicles[i].name!r}; 1 = lead): "
+                     f"displacement = {x[i]:.6g} m, velocity = {v[i]:.6g} m/s")
     j = None
     if n > 1:
         d = x[:-1] - x[1:] + low.cpl[:, P_D0]
         badc = np.flatnonzero(~np.isfinite(d))
         if badc.size:
             j = int(badc[0])
-            parts.append(f"coupler {j} (vehicles {j}-{j + 1}): deflection = {d[j]:.6g} m")
+            parts.append(f"coupler {j + 1} (between vehicles {j + 1} and {j + 2}): "
+                         f"deflection = {d[j]:.6g} m")
     parts.append("hint: reduce solver.dt (or bs23 tolerances), or check stiffness and damping "
                  "against the masses")
     return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
@@ -236,6 +237,9 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "vehicle": ("vehicle", np.arange(n)),
         "vehicle_name": ("vehicle", [v.name for v in scenario.vehicles]),
         "coupler": ("coupler", np.arange(n - 1)),
+        # the numbers people read: vehicle 1 is the lead, coupler 1 joins vehicles 1 and 2
+        "vehicle_number": ("vehicle", np.arange(1, n + 1)),
+        "coupler_number": ("coupler", np.arange(1, n)),
     }
     nc = n - 1
     for col, name in enumerate(("max_coupler_force", "min_coupler_force",
@@ -256,6 +260,11 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
                 ds[name].attrs["long_name"] = DESCRIPTIONS[name]
     ds["coupler"].attrs["long_name"] = "coupler i joins vehicle i and i + 1 (0 = lead)"
     ds["vehicle"].attrs["long_name"] = "vehicle index, 0 = lead, front to rear"
+    ds["vehicle_number"].attrs["long_name"] = "vehicle number as people count: 1 = lead, " \
+                                              "front to rear (vehicle index + 1)"
+    ds["coupler_number"].attrs["long_name"] = "coupler number as people count: coupler k " \
+                                              "joins vehicles k and k + 1, 1 = behind the " \
+                                              "lead (coupler index + 1)"
     from ltdsim import __version__
 
     ds.attrs.update({
@@ -271,6 +280,8 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "wall_time_s": wall,
         "compile_time_s": compile_time,
         "scenario_json": json.dumps(scenario.to_dict()),
-        "conventions": "SI units; coupler force + tension; vehicle 0 is the lead",
+        "conventions": "SI units; coupler force + tension; vehicle index 0 (vehicle_number "
+                       "1) is the lead; coupler index 0 (coupler_number 1) joins the lead "
+                       "and the second vehicle",
     })
     return ds

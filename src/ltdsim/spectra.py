@@ -98,7 +98,8 @@ def spectrogram(x, dt: float, segment_s: float = 10.0, overlap: float = 0.75):
 
 def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
                   lead: str = "held", series: int = 2):
-    """Per phase and coupler: largest amplitude (N) and its frequency (Hz), band RMS (N)
+    """Per phase and coupler (``couplers``: indices from 0; coupler 1 as people count,
+    behind the lead, is index 0): largest amplitude (N) and its frequency (Hz), band RMS (N)
     up to ``f_max``, and the main peaks matched to the train's modes (the study's Tables
     6 and 7). Modes from :func:`ltdsim.modal.train_modes` at the low (k1) and high
     (k2 + k3) stiffness; couplers that are not simplified are matched to none."""
@@ -129,7 +130,8 @@ def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
                          "f_at_max_hz": s["f_at_max_hz"], "band_rms_N": s["rms"],
                          "spectrum_rms_N": s["spectrum_rms"],
                          "peaks": "; ".join(f"{p['frequency_hz']:.1f} Hz"
-                                            + (f" ({p['mode']} mode {p['mode_frequency_hz']:.2f})"
+                                            + (f" ({p['mode']} mode "
+                                               f"{p['mode_frequency_hz']:.2f} Hz)"
                                                if "mode" in p else "") for p in peaks)})
     return pd.DataFrame(rows)
 
@@ -160,8 +162,9 @@ def band_share(ds, scenario=None, couplers=(0, 7, 8), f_split: float = 4.0,
 
 
 def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0):
-    """Amplitude spectra per phase (couplers ``couplers``) and a spectrogram of each over
-    the whole run; returns the files."""
+    """Amplitude spectra per phase (couplers ``couplers``, indices from 0) and a
+    spectrogram of each over the whole run; returns the files. Figures label couplers as
+    people count them (index + 1: coupler 1 is behind the lead)."""
     import json
     from pathlib import Path
 
@@ -182,7 +185,7 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
         for c in couplers:
             f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt)
             band = f <= f_max
-            axes[0, k].plot(f[band], amp[band] / 1e3, lw=0.9, label=f"coupler {c}")
+            axes[0, k].plot(f[band], amp[band] / 1e3, lw=0.9, label=f"coupler {c + 1}")
         axes[0, k].set_title(name)
         axes[0, k].set_xlabel("frequency [Hz]")
         axes[0, k].grid(alpha=0.3)
@@ -197,7 +200,7 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
         band = f <= f_max
         mesh = axes[k, 0].pcolormesh(t + float(ds.time[0]), f[band], z[band] / 1e3,
                                      shading="auto", cmap="magma")
-        axes[k, 0].set_ylabel(f"coupler {c}\nfrequency [Hz]")
+        axes[k, 0].set_ylabel(f"coupler {c + 1}\nfrequency [Hz]")
         fig.colorbar(mesh, ax=axes[k, 0], label="amplitude [kN]")
     axes[-1, 0].set_xlabel("time [s]")
     fig.suptitle("Time-frequency map of coupler forces (10 s Hann windows)")

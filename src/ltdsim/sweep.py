@@ -65,6 +65,16 @@ class Sweep:
         return self._built[case.id]
 
 
+def with_overrides(sweep: Sweep, overrides: dict, source: str = "--set") -> Sweep:
+    """The sweep with dotted-key ``overrides`` applied to every case, after the case's own
+    (so they win where both set a key). A bad override is reported once, as ``source``."""
+    if not overrides:
+        return sweep
+    sweep.base.with_overrides(overrides, source=source)  # names a bad key once
+    cases = [Case(c.id, {**c.overrides, **overrides}) for c in sweep.cases]
+    return _validated(Sweep(sweep.base, cases, sweep.source))
+
+
 def fingerprint(scenario: Scenario, extras=()) -> str:
     """Content hash of a scenario, the analyses asked for and the code that computes
     them (what a finished case record was computed from)."""
@@ -368,7 +378,9 @@ def _write_case(out: Path, case: Case, fp: str, record: dict) -> None:
 
 def summary_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
     """One row per case on disk: status, RMS speed error, the largest tension and
-    compression over all couplers (and per coupler), the largest |acceleration|."""
+    compression over all couplers (and per coupler, numbered as people count:
+    ``max_tension_coupler1_N`` is coupler 1, behind the lead), the largest
+    |acceleration|."""
     out = Path(out)
     rows = []
     for case in sweep.cases:
@@ -388,8 +400,8 @@ def summary_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
                 "samples_demand_over_adhesion": s["samples_demand_over_adhesion"],
             })
             for j, (t, c) in enumerate(zip(s["max_tension_N"], s["max_compression_N"])):
-                row[f"max_tension_c{j}_N"] = t
-                row[f"max_compression_c{j}_N"] = c
+                row[f"max_tension_coupler{j + 1}_N"] = t
+                row[f"max_compression_coupler{j + 1}_N"] = c
         rows.append(row)
     return pd.DataFrame(rows).set_index("case")
 
@@ -414,8 +426,11 @@ def best_case(summary: pd.DataFrame, criterion: str = "rms_speed_error") -> str 
 
 
 def phase_norm_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
-    """Long table of every finished case's phase norms: case, phase, quantity, index
-    (coupler or vehicle, -1 for scalars), value."""
+    """Long table of every finished case's phase norms: case, phase, quantity, number
+    (coupler or vehicle as people count: coupler 1 behind the lead, vehicle 1 the lead;
+    empty for the locomotive force and speed error), value and its unit."""
+    from ltdsim.simulate import UNITS
+
     rows = []
     for case in sweep.cases:
         p = case_path(Path(out), case.id)
@@ -425,11 +440,15 @@ def phase_norm_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
         for qty, values in rec.get("phase_norms", {}).items():
             if qty in ("phase_start", "phase_end", "samples"):
                 continue
+            unit = UNITS.get(qty.rsplit("_", 1)[0], "")
             for ph, v in zip(rec["phases"], values):
                 if isinstance(v, list):
-                    rows += [{"case": case.id, "phase": ph, "quantity": qty, "index": j,
-                              "value": x} for j, x in enumerate(v)]
+                    rows += [{"case": case.id, "phase": ph, "quantity": qty, "number": j + 1,
+                              "value": x, "unit": unit} for j, x in enumerate(v)]
                 else:
-                    rows.append({"case": case.id, "phase": ph, "quantity": qty, "index": -1,
-                                 "value": v})
-    return pd.DataFrame(rows)
+                    rows.append({"case": case.id, "phase": ph, "quantity": qty,
+                                 "number": None, "value": v, "unit": unit})
+    out = pd.DataFrame(rows)
+    if len(out):
+        out["number"] = out["number"].astype("Int64")
+    return out
