@@ -880,8 +880,14 @@ def study(
                                                       help="override for every case")] = None,
     reduction: Annotated[bool, typer.Option(help="run the model reduction")] = True,
     workers: Annotated[Optional[int], typer.Option(help="local processes")] = None,
+    force: Annotated[bool, typer.Option(help="replace a report made with other settings "
+                                             "in the output folder")] = False,
 ) -> None:
-    """Reproduce the whole study as one report (index.html, CSV tables, netCDF)."""
+    """Reproduce the whole study as one report (index.html, CSV tables, netCDF).
+
+    A folder holding a report made with other settings (overrides, base case, reduction)
+    is left alone unless --force is given; a run whose settings depart from the scenario
+    file's says so in a banner at the top of its report."""
     from ltdsim.study import run_study
 
     try:
@@ -890,7 +896,7 @@ def study(
                       TimeElapsedColumn(), console=err_console) as prog:
             task = prog.add_task("study", msg="")
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
-                              workers=workers,
+                              workers=workers, force=force,
                               progress=lambda st, msg: prog.update(task, description=st, msg=msg))
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)

@@ -162,8 +162,7 @@ def _stage_sweep(out, scenario_path, overrides, workers, progress):
     from ltdsim import sweep as sw
 
     spec = sw.load_sweep(scenario_path)
-    if overrides:
-        spec = sw.Sweep(spec.base.with_overrides(overrides), spec.cases, spec.source)
+    spec = sw.with_overrides(spec, overrides or {})
     sw.run_sweep(spec, out / "sweep", workers=workers, extras=("sysid", "spectra"),
                  progress=lambda d, n, c: progress("sweep", f"{d}/{n} cases"))
     records = {}
@@ -265,11 +264,13 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     out = Path(out)
     scenario_path = Path(scenario_path)
     base = load_scenario(scenario_path)
-    if overrides:
-        base = base.with_overrides(overrides)
     if base.cases and case not in base.cases:
         raise ScenarioError(str(scenario_path), [("--case", f"unknown case {case!r}; "
                                                             f"available: {', '.join(base.cases)}")])
+    # the overrides apply after the case's own keys, as in a sweep
+    base_case = base.with_case(case) if case in base.cases else base
+    if overrides:
+        base_case = base_case.with_overrides(overrides, source="--set")
     settings = study_settings(scenario_path, case, overrides, reduction, reduction_maxiter)
     _check_output(out, settings, force)
     out.mkdir(parents=True, exist_ok=True)
@@ -279,7 +280,6 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
         tmp.write_text(json.dumps(settings, indent=1))
     cache = _Cache(out)
     say = progress or (lambda stage, msg: None)
-    base_case = base.with_case(case) if case in base.cases else base
     results = {"settings": settings,
                "deviations": deviations(settings, load_scenario(scenario_path))}
     if reduction:
