@@ -138,11 +138,15 @@ def traction_check(ds: xr.Dataset, scenario: Scenario | None = None) -> pd.DataF
 
 # ------------------------------------------------------------------------ figures
 def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None = None,
-                  prefix: str = "") -> list[Path]:
-    """Write the study's Fig. 5 (positions and velocities relative to the locomotive),
-    Fig. 6 (traction and coupler forces) and Fig. 7 (traction against speed under the
-    traction curve) per phase into ``folder``; returns the files."""
-    from ltdsim.plotting import _save, plt
+                  prefix: str = "", highlight: list[int] | None = None) -> list[Path]:
+    """Write the study's Fig. 5 (positions and velocities relative to the lead vehicle),
+    Fig. 6 (traction and coupler forces: the ``highlight`` couplers, 0-based, in colour,
+    default :func:`ltdsim.plotting.highlight_couplers`) and Fig. 7 (traction against
+    speed under the traction curve) per phase into ``folder``; returns the files."""
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import BoundaryNorm
+
+    from ltdsim.plotting import WIDTH, _save, coupler_lines, highlight_couplers, plt
 
     scenario = _scenario_of(ds, scenario)
     phases = phases_of(ds, scenario)
@@ -151,64 +155,86 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
     n = len(phases)
     if n == 0:
         return files
-    cmap = plt.get_cmap("viridis")
     nv = ds.sizes["vehicle"]
+    rows = n if n > 1 else 1
 
-    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 7), squeeze=False, constrained_layout=True)
+    # Fig. 5: one row per phase, vehicles 2..n coloured by their number
+    cmap = plt.get_cmap("viridis", max(nv - 1, 1))
+    norm = BoundaryNorm(np.arange(1.5, nv + 1.0), cmap.N)
+    fig, axes = plt.subplots(rows, 2, figsize=(WIDTH, 2.6 * rows + 1.2), squeeze=False,
+                             constrained_layout=True)
     for k, (name, a, b) in enumerate(phases):
         w = ds.sel(time=slice(a, b))
         for i in range(1, nv):
-            c = cmap((i - 1) / max(nv - 2, 1))
-            axes[0, k].plot(w.time, w.relative_position.isel(vehicle=i) * 1e3, lw=0.8, color=c,
-                            label=f"vehicle {i + 1}")
-            axes[1, k].plot(w.time, w.relative_velocity.isel(vehicle=i), lw=0.8, color=c)
-        axes[0, k].set_title(name)
-        axes[1, k].set_xlabel("time [s]")
-    axes[0, 0].set_ylabel("position rel. to lead [mm]")
-    axes[1, 0].set_ylabel("velocity rel. to lead [m/s]")
-    if nv <= 12:
-        axes[0, -1].legend(fontsize=7)
-    fig.suptitle("Vehicles relative to the lead vehicle (vehicle 1) per phase (study Fig. 5)")
+            c = cmap(norm(i + 1))
+            axes[k, 0].plot(w.time, w.relative_position.isel(vehicle=i) * 1e3, lw=0.8, color=c)
+            axes[k, 1].plot(w.time, w.relative_velocity.isel(vehicle=i), lw=0.8, color=c)
+        axes[k, 0].set_title(f"{name}: position relative to vehicle 1", loc="left")
+        axes[k, 1].set_title(f"{name}: velocity relative to vehicle 1", loc="left")
+        axes[k, 0].set_ylabel("[mm]")
+        axes[k, 1].set_ylabel("[m/s]")
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]")
+    if nv > 1:
+        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=axes, label="vehicle (1 = lead)",
+                           aspect=40, pad=0.01)
+        bar.set_ticks(np.arange(2, nv + 1, max(1, (nv - 1) // 10)))
+    fig.suptitle("Vehicles relative to the lead vehicle per phase (study Fig. 5); "
+                 "- behind, + ahead of their starting offset")
     files.append(_save(fig, folder / f"{prefix}fig5_relative_motion.png"))
 
-    fig, axes = plt.subplots(2, n, figsize=(4.2 * n, 7), squeeze=False, constrained_layout=True)
+    # Fig. 6: one row per phase: the locomotives' force, and the couplers
+    picks = highlight_couplers(ds) if highlight is None else list(highlight)
     nc = ds.sizes["coupler"]
+    fig, axes = plt.subplots(rows, 2, figsize=(WIDTH, 2.6 * rows + 1.2), squeeze=False,
+                             constrained_layout=True, width_ratios=(1.0, 1.6))
     for k, (name, a, b) in enumerate(phases):
         w = ds.sel(time=slice(a, b))
-        axes[0, k].plot(w.time, w.traction_force / 1e3, lw=0.8)
-        axes[0, k].set_title(name)
-        for j in range(nc):
-            axes[1, k].plot(w.time, w.coupler_force.isel(coupler=j) / 1e3, lw=0.6,
-                            color=cmap(j / max(nc - 1, 1)), label=f"coupler {j + 1}")
-        axes[1, k].set_xlabel("time [s]")
-    axes[0, 0].set_ylabel("traction force [kN]")
-    axes[1, 0].set_ylabel("coupler force [kN] (+ tension)")
-    if nc <= 12:
-        axes[1, -1].legend(fontsize=7, ncol=2)
+        axes[k, 0].plot(w.time, w.traction_force / 1e3, lw=0.9, color="k")
+        axes[k, 0].set_title(f"{name}: locomotive force", loc="left")
+        axes[k, 0].set_ylabel("[kN]")
+        if nc:
+            coupler_lines(axes[k, 1], w.time.values, w.coupler_force.values, picks,
+                          others=nc <= 30)
+        axes[k, 1].set_title(f"{name}: coupler forces (+ tension)", loc="left")
+        axes[k, 1].set_ylabel("[kN]")
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]")
+    if nc:
+        axes[0, 1].legend(loc="upper right", ncol=len(picks) + 1)
     fig.suptitle("Traction and coupler forces per phase (study Fig. 6)")
     files.append(_save(fig, folder / f"{prefix}fig6_forces.png"))
 
+    # Fig. 7: traction against speed under the curve's three limits
     t = scenario.traction
     g = scenario.track.gravity
     vmax = max(float(np.abs(ds.velocity).max()) * 1.1, 1.0)
     v = np.linspace(0.0, vmax, 300)
     adh = adhesion_limit(v, t.adhesion_mass, g)
     power = np.divide(t.max_power, v, out=np.full_like(v, np.inf), where=v > 0)
-    fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4.2), squeeze=False, constrained_layout=True)
+    top = 1.08 * max(float(adh.max()), t.max_force, float(np.abs(ds.traction_force).max())) / 1e3
+    cols = 2 if n > 1 else 1
+    grid_rows = -(-n // cols)
+    fig, axes = plt.subplots(grid_rows, cols, figsize=(WIDTH, 3.6 * grid_rows + 0.8),
+                             squeeze=False, constrained_layout=True, sharey=True)
     ref = int(np.argmax([vh.powered for vh in scenario.vehicles]))
     for k, (name, a, b) in enumerate(phases):
-        ax = axes[0, k]
-        ax.plot(v, adh / 1e3, "k:", lw=1, label="adhesion")
+        ax = axes.flat[k]
+        ax.plot(v, adh / 1e3, "k:", lw=1.2, label="adhesion limit")
         ax.plot(v, np.full_like(v, t.max_force) / 1e3, "k--", lw=1, label="force limit")
-        ax.plot(v, np.minimum(power, 2 * t.max_force) / 1e3, "k-.", lw=1, label="power limit")
+        ax.plot(v, np.minimum(power, 2 * top * 1e3) / 1e3, "k-.", lw=1, label="power limit")
         w = ds.sel(time=slice(a, b))
-        ax.plot(w.velocity.isel(vehicle=ref), np.abs(w.traction_force) / 1e3, ".", ms=1.5,
-                label="|traction|")
-        ax.set_ylim(0, 1.2 * max(t.max_force, float(np.abs(w.traction_force).max())) / 1e3)
-        ax.set_title(name)
-        ax.set_xlabel("speed [m/s]")
-    axes[0, 0].set_ylabel("force [kN]")
-    axes[0, -1].legend(fontsize=7)
-    fig.suptitle("Traction against the traction curve per phase (study Fig. 7)")
+        ax.plot(w.velocity.isel(vehicle=ref), np.abs(w.traction_force) / 1e3, ".", ms=2,
+                color="tab:blue", label="|locomotive force|")
+        ax.set_ylim(0, top)
+        ax.set_xlim(0, vmax)
+        ax.set_title(name, loc="left")
+        ax.set_xlabel("speed of the locomotive [m/s]")
+        ax.set_ylabel("force [kN]")
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    axes.flat[0].legend(loc="upper right")
+    fig.suptitle("Locomotive force against speed under the traction curve, per phase "
+                 "(study Fig. 7)")
     files.append(_save(fig, folder / f"{prefix}fig7_traction_curve.png"))
     return files

@@ -13,33 +13,88 @@ import xarray as xr  # noqa: E402
 
 from ltdsim.io import atomic_path  # noqa: E402
 
+#: every figure is this wide (inches) and saved at :data:`DPI`, so on a page 1400 px wide
+#: (the report's column is at most 1200 px) text shows at about its point size
+WIDTH = 11.0
+DPI = 110
+plt.rcParams.update({"font.size": 10.5, "axes.titlesize": 11, "axes.labelsize": 10.5,
+                     "xtick.labelsize": 10, "ytick.labelsize": 10, "legend.fontsize": 9.5,
+                     "figure.titlesize": 12, "axes.grid": True, "grid.alpha": 0.3})
+#: colours of the highlighted couplers, in the study's Fig. 9 order (1, 8, 9)
+HIGHLIGHT_COLOURS = ("tab:blue", "tab:red", "tab:orange", "tab:green", "tab:purple")
 
-def overview_figure(ds: xr.Dataset):
-    """Speed tracking, air brakes (if any), traction against the adhesion limit, and
-    coupler forces over time (one line per coupler, or for long trains a time x coupler
-    map).
+
+def highlight_couplers(ds: xr.Dataset, count: int = 3) -> list[int]:
+    """Coupler indices (0-based) to draw as lines: for the study's ten-vehicle train and
+    other short ones the first and the last two (the study's couplers 1, 8 and 9); for
+    trains of more than 12 vehicles the ``count`` couplers with the largest |force|."""
+    nc = ds.sizes["coupler"]
+    if nc <= 11:
+        return sorted({0, max(nc - 2, 0), nc - 1})[:count] if nc else []
+    if "max_coupler_force" in ds:
+        peak = np.maximum(ds.max_coupler_force.values, -ds.min_coupler_force.values)
+    else:
+        peak = np.abs(ds.coupler_force).max("time").values
+    return sorted(np.argsort(-peak)[:count].tolist())
+
+
+def coupler_lines(ax, t, force, couplers, others: bool = True, lw: float = 0.9) -> None:
+    """Coupler forces (N, time x coupler) in kN: the ``couplers`` (0-based) in distinct
+    colours, labelled from 1; with ``others`` every other coupler thin and grey."""
+    force = np.asarray(force)
+    if others:
+        rest = [j for j in range(force.shape[1]) if j not in couplers]
+        for k, j in enumerate(rest):
+            ax.plot(t, force[:, j] / 1e3, lw=0.4, color="0.7",
+                    label="other couplers" if k == 0 else None)
+    for k, j in enumerate(couplers):
+        ax.plot(t, force[:, j] / 1e3, lw=lw, color=HIGHLIGHT_COLOURS[k % 5],
+                label=f"coupler {j + 1}")
+
+
+def coupler_map(fig, ax, t, force, label="coupler force [kN] (+ tension)") -> None:
+    """Every coupler's force (N, time x coupler) as a time x coupler colour map in kN,
+    tension red, compression blue, coupler 1 at the top."""
+    f = np.asarray(force).T / 1e3
+    lim = np.abs(f).max() or 1.0
+    nc = f.shape[0]
+    mesh = ax.pcolormesh(t, np.arange(1, nc + 1), f, cmap="RdBu_r", vmin=-lim, vmax=lim,
+                         shading="nearest", rasterized=True)
+    fig.colorbar(mesh, ax=ax, label=label, pad=0.01)
+    ax.set_ylabel("coupler\n(1 = behind the lead)")
+    ax.yaxis.set_major_locator(plt.MaxNLocator(integer=True, nbins=min(nc, 10)))
+    ax.set_ylim(nc + 0.5, 0.5)
+    ax.grid(False)
+
+
+def overview_figure(ds: xr.Dataset, highlight: list[int] | None = None):
+    """Speed tracking, air brakes (if any), traction against the adhesion limit, the
+    forces of a few couplers (``highlight``, 0-based; default :func:`highlight_couplers`)
+    as lines and every coupler's force as a time x coupler map.
 
     Returns the matplotlib ``Figure``.
     """
     t = ds.time.values
     tracking = bool(np.isfinite(ds.speed_error.values).any())
     braked = "brake_force" in ds
-    panels = ["speed"] + (["error"] if tracking else []) + (["brake"] if braked else []) + [
-        "traction", "couplers"]
-    heights = [2.0 if p == "couplers" else 1.0 for p in panels]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(11, 2.6 * len(panels) + 1.5), sharex=True,
-                             constrained_layout=True, height_ratios=heights)
+    nc = ds.sizes["coupler"]
+    panels = (["speed"] + (["error"] if tracking else []) + (["brake"] if braked else [])
+              + ["traction"] + (["couplers", "map"] if nc else []))
+    heights = [1.6 if p in ("couplers", "map") else 1.0 for p in panels]
+    fig, axes = plt.subplots(len(panels), 1, figsize=(WIDTH, 2.2 * len(panels) + 1.5),
+                             sharex=True, constrained_layout=True, height_ratios=heights)
     ax_of = dict(zip(panels, axes))
     ax = ax_of["speed"]
     if np.isfinite(ds.speed_reference.values).any():
         ax.plot(t, ds.speed_reference, "k--", lw=1.2, label="reference")
-    ax.plot(t, ds.velocity.isel(vehicle=0), lw=1.0, label=f"{ds.vehicle_name.values[0]} (lead)")
+    ax.plot(t, ds.velocity.isel(vehicle=0), lw=1.0, label=f"{ds.vehicle_name.values[0]} "
+                                                          "(vehicle 1, lead)")
     ax.set_ylabel("speed [m/s]")
     ax.legend(loc="lower right")
     if tracking:
         ax = ax_of["error"]
         ax.plot(t, ds.speed_error, lw=0.8, color="tab:red")
-        ax.set_ylabel("speed error [m/s]")
+        ax.set_ylabel("speed error [m/s]\n(reference - lead)")
     if braked:
         ax = ax_of["brake"]
         ax.plot(t, ds.brake_force.sum("vehicle") / 1e3, lw=1.0, color="tab:brown",
@@ -50,6 +105,7 @@ def overview_figure(ds: xr.Dataset):
                  label="command (right)")
         ax2.set_ylabel("brake command [-]")
         ax2.set_ylim(-0.05, 1.05)
+        ax2.grid(False)
         ax.legend(loc="upper left")
         ax2.legend(loc="upper right")
     ax = ax_of["traction"]
@@ -57,35 +113,20 @@ def overview_figure(ds: xr.Dataset):
         for name in ds.locomotive.values:
             ax.plot(t, ds.locomotive_force.sel(locomotive=name) / 1e3, lw=0.8, label=str(name))
     else:
-        ax.plot(t, ds.traction_force / 1e3, lw=0.8, label="traction / dynamic brake")
-    ax.plot(t, ds.adhesion_limit / 1e3, "k:", lw=1.0, label="adhesion limit (all)")
+        ax.plot(t, ds.traction_force / 1e3, lw=0.8, label="traction (+) / dynamic brake (-)")
+    ax.plot(t, ds.adhesion_limit / 1e3, "k:", lw=1.0, label="± adhesion limit")
     ax.plot(t, -ds.adhesion_limit / 1e3, "k:", lw=1.0)
-    ax.set_ylabel("force [kN]")
-    ax.legend(loc="lower right")
-    ax = ax_of["couplers"]
-    nc = ds.sizes["coupler"]
-    if nc <= 30:
-        cmap = plt.get_cmap("viridis")
-        for j in range(nc):
-            ax.plot(t, ds.coupler_force.isel(coupler=j) / 1e3, lw=0.5,
-                    color=cmap(j / max(nc - 1, 1)), label=f"coupler {j + 1}")
+    ax.set_ylabel("locomotive force [kN]")
+    ax.legend(loc="lower right", ncol=2)
+    if nc:
+        picks = highlight_couplers(ds) if highlight is None else list(highlight)
+        ax = ax_of["couplers"]
+        coupler_lines(ax, t, ds.coupler_force.values, picks, others=nc <= 30)
         ax.set_ylabel("coupler force [kN]\n(+ tension)")
-        if nc <= 12:
-            ax.legend(loc="upper right", ncol=min(nc, 6), fontsize=7)
-    else:  # a map reads better than hundreds of lines
-        f = ds.coupler_force.values.T / 1e3
-        lim = np.abs(f).max() or 1.0
-        mesh = ax.pcolormesh(t, ds.coupler.values + 1, f, cmap="RdBu_r", vmin=-lim, vmax=lim,
-                             shading="auto", rasterized=True)
-        fig.colorbar(mesh, ax=ax, label="coupler force [kN] (+ tension)")
-        ax.set_ylabel("coupler (1 = behind the lead)")
-        ax.yaxis.set_major_locator(plt.MaxNLocator(integer=True))
-        ax.invert_yaxis()
-    ax.set_xlabel("time [s]")
-    for a in axes:
-        a.grid(alpha=0.3)
-    title = ds.attrs.get("title", "ltdsim result")
-    fig.suptitle(title)
+        ax.legend(loc="upper right", ncol=len(picks) + 1)
+        coupler_map(fig, ax_of["map"], t, ds.coupler_force.values)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(ds.attrs.get("title", "ltdsim result"))
     return fig
 
 
@@ -106,23 +147,32 @@ def save_gear_loop(ds: xr.Dataset, path: str | Path, title: str = "") -> Path:
     return _save(fig, path)
 
 
-def save_reduction(result, path: str | Path, title: str = "") -> Path:
-    """The study's Fig. 3: detailed and fitted simplified gear forces over time and
-    against deflection."""
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 5), constrained_layout=True)
-    a1.plot(result.time, result.target_force / 1e3, lw=0.8, label="detailed gear")
-    a1.plot(result.time, result.fitted_force / 1e3, lw=0.8, ls="--", label="simplified, fitted")
-    a1.set_xlabel("time [s]")
-    a1.set_ylabel("gear force [kN]")
-    a1.legend()
-    a1.grid(alpha=0.3)
-    a2.plot(result.target_deflection * 1e3, result.target_force / 1e3, lw=0.6, label="detailed")
-    a2.plot(result.target_deflection * 1e3, result.fitted_force / 1e3, lw=0.6, ls="--",
+def save_reduction(result, path: str | Path, title: str = "", burst: tuple = (14.0, 14.6)
+                   ) -> Path:
+    """The study's Fig. 3: detailed and fitted simplified gear forces over time (with the
+    excitation's fast ``burst`` window, s, magnified below) and against deflection."""
+    fig = plt.figure(figsize=(WIDTH, 7.5), constrained_layout=True)
+    grid = fig.add_gridspec(2, 2, height_ratios=(1.0, 0.8))
+    a1, a2, a3 = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[:, 1]), fig.add_subplot(
+        grid[1, 0])
+    for ax in (a1, a3):
+        ax.plot(result.time, result.target_force / 1e3, lw=0.9, label="detailed gear")
+        ax.plot(result.time, result.fitted_force / 1e3, lw=0.9, ls="--",
+                label="simplified, fitted")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("gear force [kN]")
+    a1.axvspan(*burst, color="0.85", zorder=0, label=f"{burst[0]:g}-{burst[1]:g} s, below")
+    a1.legend(loc="lower left")
+    a1.set_title("force against time")
+    a3.set_xlim(*burst)
+    a3.set_title(f"the last {burst[1] - burst[0]:.1f} s magnified (5 and 10 Hz excitation)")
+    a2.plot(result.target_deflection * 1e3, result.target_force / 1e3, lw=0.7, label="detailed")
+    a2.plot(result.target_deflection * 1e3, result.fitted_force / 1e3, lw=0.7, ls="--",
             label="simplified (same deflection record)")
-    a2.set_xlabel("deflection of the detailed gear [mm]")
-    a2.set_ylabel("force [kN]")
-    a2.grid(alpha=0.3)
-    a2.legend()
+    a2.set_xlabel("deflection of the detailed gear [mm] (+ draft)")
+    a2.set_ylabel("gear force [kN] (+ tension)")
+    a2.set_title("force against deflection")
+    a2.legend(loc="upper left")
     fig.suptitle((title + "; " if title else "") + f"fit {result.fit_percent:.1f} %")
     return _save(fig, path)
 
@@ -130,6 +180,6 @@ def save_reduction(result, path: str | Path, title: str = "") -> Path:
 def _save(fig, path) -> Path:
     path = Path(path)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format=path.suffix.lstrip(".") or "png")
+        fig.savefig(tmp, dpi=DPI, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
     return path

@@ -235,9 +235,10 @@ def _stage_modal(out, cache, scenario: Scenario):
             value[which] = {"error": str(exc)}
             continue
         label = {"low": "k1", "high": "k2 + k3"}[which]
-        save_mode_shapes(free, fig, title=f"{which} stiffness ({label} = "
+        save_mode_shapes(free, fig, title=f"Fig. 8, {which} stiffness: {label} = "
                                           f"{k[0] * series / 1e6:.2f} MN/m per gear, "
-                                          f"{series} gears per coupling)")
+                                          f"{series} gears per coupling; case "
+                                          f"{scenario.case or scenario.name}, free train")
         value[which] = {"free": free.frequency_hz.tolist(), "held": held.frequency_hz.tolist(),
                         "coupling_stiffness_N_m": float(k[0])}
     gears = [scenario.with_case(c).coupler(0) for c in scenario.cases] or [scenario.coupler(0)]
