@@ -484,7 +484,7 @@ class Initial(_Strict):
 
 
 class Phase(_Strict):
-    """A named time window for analyses (the study's phases, MODEL.md §8)."""
+    """A named time window for analyses (the study's phases, paper §5.1)."""
 
     name: str = Field(min_length=1)
     start: float = Field(ge=0.0, description="s")
@@ -498,7 +498,7 @@ class Phase(_Strict):
         return self
 
 
-#: the study's analysis windows (paper §5.1, MODEL.md §8)
+#: the study's analysis windows (paper §5.1)
 STUDY_PHASES = [
     {"name": "acceleration", "start": 0.0, "end": 10.0},
     {"name": "curving", "start": 75.0, "end": 85.0},
