@@ -25,7 +25,7 @@ import ltdsim
 
 HERE = Path(__file__).resolve().parent
 HEAVY = HERE.parent / "scenarios" / "heavy-haul.toml"
-TARGET_S = 600.0  # issue 7: the 3-hour trip in at most 10 minutes
+TARGET_S = 600.0  # the goal: the 3-hour trip in at most 10 minutes
 COSIM_HOURS = 29.0  # a published 3-D co-simulation of this train: ~29 h on 216 cores
 
 

@@ -1,4 +1,4 @@
-"""The study's base scenario (MODEL.md §8) and its 16 cases."""
+"""The study's base scenario (docs/paper-scenario.md) and its 16 cases."""
 
 import json
 

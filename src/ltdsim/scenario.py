@@ -13,6 +13,7 @@ import math
 import tomllib
 import types
 import typing
+from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal, Optional, Union
 
@@ -157,21 +158,30 @@ _REQUIRED = {
                        "k_m", "k_r", "x_m0", "x_r0", "plate_gap", "travel"),
     "table": ("loading", "unloading", "k_locked"),
 }
-_GEAR_DIR = Path(__file__).parent / "data" / "gears"
+
+
+def _gear_dir():
+    """The shipped gear presets, ``ltdsim/data/gears/*.toml`` (package data, found through
+    importlib.resources so that an installed wheel finds them as a source tree does)."""
+    return resources.files("ltdsim.data").joinpath("gears")
 
 
 def gear_presets() -> list[str]:
     """Names of the shipped draft-gear parameter sets (``preset = NAME`` in a coupler)."""
-    return sorted(p.stem for p in _GEAR_DIR.glob("*.toml"))
+    folder = _gear_dir()
+    if not folder.is_dir():  # an install without its package data: no presets, no traceback
+        return []
+    return sorted(p.name.removesuffix(".toml") for p in folder.iterdir()
+                  if p.name.endswith(".toml") and p.is_file())
 
 
 def load_gear_preset(name: str) -> dict:
     """The keys of gear parameter set ``name`` (see :func:`gear_presets`)."""
-    path = _GEAR_DIR / f"{name}.toml"
-    if not path.is_file():
-        raise ValueError(f"unknown preset {name!r}; available: {', '.join(gear_presets())}")
-    with path.open("rb") as fh:
-        return tomllib.load(fh)
+    names = gear_presets()
+    if name not in names:
+        raise ValueError(f"unknown preset {name!r}; available: "
+                         f"{', '.join(names) or 'none (this install lacks its package data)'}")
+    return tomllib.loads(_gear_dir().joinpath(f"{name}.toml").read_text(encoding="utf-8"))
 
 
 class STable(_Strict):
@@ -474,7 +484,7 @@ class Initial(_Strict):
 
 
 class Phase(_Strict):
-    """A named time window for analyses (the study's phases, MODEL.md §8)."""
+    """A named time window for analyses (the study's phases, paper §5.1)."""
 
     name: str = Field(min_length=1)
     start: float = Field(ge=0.0, description="s")
@@ -488,7 +498,7 @@ class Phase(_Strict):
         return self
 
 
-#: the study's analysis windows (paper §5.1, MODEL.md §8)
+#: the study's analysis windows (paper §5.1)
 STUDY_PHASES = [
     {"name": "acceleration", "start": 0.0, "end": 10.0},
     {"name": "curving", "start": 75.0, "end": 85.0},

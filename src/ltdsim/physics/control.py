@@ -1,10 +1,11 @@
-"""Discrete PID speed controller in the study's parallel form (paper §5, MODEL.md §7).
+"""Discrete PID speed controller in the study's parallel form (paper §5).
 
 ``C(z) = P + I * F_i(z) + D * N / (1 + N * F_d(z))`` with the integrator ``F_i`` and
 derivative filter ``F_d`` each forward Euler ``Ts / (z - 1)`` or backward Euler
 ``Ts z / (z - 1)``. The study uses forward Euler for the integrator and backward Euler
 for the filter, N = 100, Ts = 1e-4 s. The output is the demanded acceleration, m/s^2,
-when the input is the speed error, m/s.
+when the input is the speed error, m/s. How the study's printed form is read:
+docs/model.md#speed-controller.
 """
 
 from __future__ import annotations

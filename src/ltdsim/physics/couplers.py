@@ -87,13 +87,14 @@ def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc):
     cache=True,
 )
 def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
-    """The study's simplified nonlinear coupler (paper Eq. 9, reading of MODEL.md §2), N.
+    """The study's simplified nonlinear coupler (paper Eq. 9), N.
 
     Draft (``e > 0``): ``T = P + (k3 + k2 exp(-|de/dt| / v_c)) e + b de/dt``.
     Buff (``e < 0``): ``T = -P + k1 e + b de/dt``. Zero inside the dead band.
 
     The nonlinear stiffness ``k2`` fades as the gear slides faster, like the
-    static-to-kinetic friction law; ``|de/dt|`` keeps it from feeding energy in.
+    static-to-kinetic friction law; ``|de/dt|`` keeps it from feeding energy in. Why Eq. 9
+    is read this way: docs/model.md#simplified-coupler.
 
     Parameters
     ----------

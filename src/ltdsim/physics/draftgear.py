@@ -3,7 +3,7 @@
 Both are hysteretic: the force lies between an unloading curve ``f_u`` and a loading
 curve ``f_l`` of the gear deflection ``x >= 0`` (and speed). Which curve acts depends on
 history, and history must not hide inside a right-hand side that a Runge-Kutta method
-evaluates several times per step. So, as MODEL.md §3 prescribes, the gear carries an
+evaluates several times per step. So the gear carries an
 internal force ``F1`` in the ODE state, and the force used is ``F = clip(F1, f_u, f_l)``
 (paper Eq. 7). Its rate is
 
@@ -16,10 +16,10 @@ gear is "locked" (Eq. 5-6) and crosses the band at ``k_locked`` relative to it, 
 the other curve after a deflection ``(f_l - f_u) / k_locked``. Where a curve steps (a
 stage change) the force stays continuous and rejoins the curve the same way.
 
-This departs from a literal ``dF1/dt = k_locked v`` (MODEL.md): with the study's high
-set ``k_locked`` (8 MN/m) is below the loading curve's slope (about 30 MN/m), and the
-literal form would never reach the loading curve and would drag the force along the
-unloading curve while loading (docs/draftgear.md). A gear in its slack extends fully and
+This departs from the plain ``dF1/dt = k_locked v`` (docs/model.md#friction-draft-gear):
+with the study's high set ``k_locked`` (8 MN/m) is below the loading curve's slope (about
+30 MN/m), and the plain form would never reach the loading curve and would drag the force
+along the unloading curve while loading (docs/draftgear.md). A gear in its slack extends fully and
 its wedges come free, so it meets the next load on its loading curve.
 
 The movable plates of the wedge gear engage after a gap ``x_gap``. Their displacement

@@ -84,8 +84,9 @@ def curve_resistance(v, mass, curvature, h, g):
     """Curving resistance, N (paper Eq. 14).
 
     The specific resistance ``h / R`` is read as newtons per kilonewton of weight
-    (MODEL.md §5), so ``F = m g h / (1000 R) = m g h curvature / 1000``, opposing motion
-    and zero at standstill.
+    (docs/model.md#running-resistance), so
+    ``F = m g h / (1000 R) = m g h curvature / 1000``, opposing motion and zero at
+    standstill.
 
     Parameters
     ----------
