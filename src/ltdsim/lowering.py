@@ -145,11 +145,14 @@ def lower(s: Scenario) -> Lowered:
             c.slack, c.preload, c.damping, c.stiffness or 0.0, c.k1 or 0.0, c.k2, c.k3 or 0.0,
             1.0 / (c.v_c or 1.0), sign0 * 0.5 * c.slack]
         row[P_ZOFF] = -1.0
+        # gear travel beyond the slack (the table gear's default is set below); a linear or
+        # simplified coupler without one never closes solid
+        row[P_TRAVEL] = np.inf if c.travel is None else c.travel
+        row[P_KSOLID] = c.solid_stiffness
         if c.model in ("friction_wedge", "table"):
             row[P_ZOFF] = nz
             row[P_RATE] = 1.0 / (c.tracking_time or 4.0 * dt_ref)
             row[P_KLOCK] = c.k_locked
-            row[P_KSOLID] = c.solid_stiffness
             row[P_F0] = released_force(c)
             # states: internal force (starting released, on the loading curve at 0);
             # wedge gears: plate displacement; with an S table: impact speed
@@ -303,7 +306,6 @@ def _lower_wedge(c, row, tables) -> None:
     row[[P_H1, P_H2, P_H3]] = c.h1, c.h2, c.h3
     row[[P_KM, P_XM0, P_KR, P_XR0, P_GAP, P_BACK]] = (c.k_m, c.x_m0, c.k_r, c.x_r0,
                                                       c.plate_gap, c.plate_backlash)
-    row[P_TRAVEL] = c.travel
     row[P_STAB] = -1.0
     if c.S_table is not None:
         t = c.S_table

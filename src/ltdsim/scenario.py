@@ -224,10 +224,14 @@ class CouplerParams(_Strict):
     x_r0: float | None = Field(None, ge=0.0, le=1.0, description="release pre-deflection, m")
     plate_gap: float | None = Field(None, ge=0.0, le=1.0, description="m")
     plate_backlash: float = Field(0.003, ge=0.0, le=1.0, description="m")
+    # every model: gear travel beyond the slack to solid closure (optional for linear and
+    # simplified, required for friction_wedge, table: its last point) and the solid gear's
+    # stiffness (physics.couplers.solid_closure)
+    travel: float | None = Field(None, gt=0.0, le=1.0,
+                                 description="gear travel beyond the slack to closure, m")
+    solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12, description="beyond travel, N/m")
     # friction_wedge and table
     k_locked: float | None = Field(None, gt=0.0, le=1e11, description="locked stiffness, N/m")
-    travel: float | None = Field(None, gt=0.0, le=1.0, description="travel to closure, m")
-    solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12, description="beyond travel, N/m")
     tracking_time: float | None = Field(None, gt=0.0, le=1.0,
                                         description="internal-state time constant, s")
     # table
