@@ -98,7 +98,7 @@ def run(
     from ltdsim.io import save_result
     from ltdsim.scenario import load_scenario
     from ltdsim.simulate import simulate
-    from ltdsim.summary import coupler_summary, critical_rows, run_summary
+    from ltdsim.summary import coupler_summary, critical_rows, run_summary, travel_warning
 
     try:
         sc = load_scenario(file, case=case)
@@ -139,6 +139,9 @@ def run(
            if sc.solver.adaptive else "")
         + f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
+    warning = travel_warning(ds, sc)
+    if warning:
+        err_console.print(f"[yellow]warning:[/] {escape(warning)}")
     if output is not None:
         save_result(ds, output)
         console.print(f"result written to {output}")
