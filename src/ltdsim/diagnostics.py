@@ -111,8 +111,10 @@ def cruise_window(ds: xr.Dataset, settle: float = 10.0) -> tuple[float, float]:
 
 
 def reference_corners(profile) -> pd.DataFrame:
-    """Where the piecewise-linear speed reference changes its slope: time (s) and the
-    jump of the demanded acceleration there (m/s^2), largest first."""
+    """Where the piecewise-linear speed reference ``[[t s, v m/s], ...]`` changes its
+    slope: time (s) and the jump of the demanded acceleration there (m/s^2), largest
+    first. (A rounded profile, :func:`ltdsim.lowering.rounded_profile`, has only the small
+    steps of its sampling.)"""
     p = np.asarray(profile, dtype=float).reshape(-1, 2)
     if p.shape[0] < 2:
         return pd.DataFrame({"time_s": [], "jump_m_s2": []})
@@ -160,10 +162,12 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
         checked against) and ``couplers_beyond_travel`` (list, counted from 1);
         ``max_wagon_acceleration_m_s2`` (largest |acceleration| of an unpowered vehicle,
         m/s^2) and ``max_wagon_acceleration_vehicle`` (counted from 1, 1 = lead);
-        ``reference_corner_m_s2`` (largest jump of the reference's acceleration, m/s^2)
-        and ``reference_corner_time_s`` (s); ``held_mode_hz`` (lowest natural frequency
-        of the wagons against a locomotive held still, at the draft stiffness, Hz).
+        ``reference_corner_m_s2`` (largest jump of the reference's acceleration, m/s^2,
+        after rounding) and ``reference_corner_time_s`` (s); ``held_mode_hz`` (lowest
+        natural frequency of the wagons against a locomotive held still, at the draft
+        stiffness, Hz).
     """
+    from ltdsim.lowering import rounded_profile
     from ltdsim.modal import chain_modes
     from ltdsim.summary import gear_travel_check
 
@@ -178,7 +182,7 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
     powered = np.array([v.powered for v in sc.vehicles])
     acc = np.abs(ds.acceleration.values[:, ~powered])
     wagons = np.flatnonzero(~powered)
-    corners = reference_corners(sc.driver.speed_profile)
+    corners = reference_corners(np.column_stack(rounded_profile(sc.driver.speed_profile)))
     k = np.array([_draft_stiffness(sc.coupler(j)) for j in range(sc.n_couplers)])
     lead = sc.consists()[0].vehicles[0]
     held = np.nan
@@ -283,3 +287,57 @@ def closed_loop_modes(scenario: Scenario, stiffness: str | float = "draft",
     return pd.DataFrame({"frequency_hz": wn[order] / (2 * np.pi),
                          "damping_ratio": zeta[order],
                          "decay_time_s": decay[order]})
+
+
+def hunt_figure(results, path, t_range: tuple[float, float] = (0.0, 120.0),
+                reference_travel: float = 0.083):
+    """The mechanism of a ringing run in three panels, one line per run: the acceleration
+    the speed reference demands (m/s^2, its slope), the locomotive force (kN) and the
+    first coupler's gear deflection beyond its slack (mm, with the reference travel).
+
+    Parameters
+    ----------
+    results : mapping of label -> xarray.Dataset
+        Results of :func:`ltdsim.simulate` in speed mode (e.g. the study's train with
+        two reference profiles).
+    path : str or Path
+        Image file to write (PNG, SVG or PDF).
+    t_range : (float, float)
+        Time window shown, s.
+    reference_travel : float
+        Travel drawn as a dashed line, m (default 0.083 m, AAR 3-1/4 in).
+
+    Returns the path written.
+    """
+    from ltdsim.plotting import _save, plt
+
+    fig, axes = plt.subplots(3, 1, figsize=(11, 8.5), sharex=True, constrained_layout=True)
+    a, b = t_range
+    for k, (label, ds) in enumerate(results.items()):
+        sc = _scenario(ds, None)
+        sel = ds.sel(time=slice(a, b))
+        t = sel.time.values
+        colour = f"C{k}"
+        vref = sel.speed_reference.values
+        axes[0].plot(t[1:], np.diff(vref) / np.diff(t), color=colour, lw=1.2, label=label)
+        axes[1].plot(t, sel.traction_force.values / 1e3, color=colour, lw=0.9, label=label)
+        h = 0.5 * sc.coupler(0).slack
+        d = sel.coupler_deflection.values[:, 0]
+        beyond = np.where(d > h, d - h, np.where(d < -h, d + h, 0.0))
+        axes[2].plot(t, beyond * 1e3, color=colour, lw=0.9, label=label)
+    for sign in (1, -1):
+        axes[2].axhline(sign * reference_travel * 1e3, color="k", ls="--", lw=0.8)
+    axes[2].text(a, reference_travel * 1e3, f" {reference_travel * 1e3:.0f} mm: a real gear's "
+                 "travel (AAR 3-1/4 in)", va="bottom", fontsize=9)
+    axes[0].set_ylabel("reference acceleration\n[m/s²]")
+    axes[1].set_ylabel("locomotive force [kN]")
+    axes[2].set_ylabel("coupler 1 gear deflection\nbeyond slack [mm]\n(+ draft, − buff)")
+    axes[2].set_xlabel("time [s]")
+    axes[0].set_title("What the reference demands, what the locomotive does, what the first "
+                      "gear takes", fontsize=11)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+        ax.tick_params(labelsize=9)
+        ax.legend(fontsize=9, loc="upper right")
+    axes[2].set_xlim(a, b)
+    return _save(fig, path)
