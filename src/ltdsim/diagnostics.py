@@ -327,8 +327,8 @@ def hunt_figure(results, path, t_range: tuple[float, float] = (0.0, 120.0),
         axes[2].plot(t, beyond * 1e3, color=colour, lw=0.9, label=label)
     for sign in (1, -1):
         axes[2].axhline(sign * reference_travel * 1e3, color="k", ls="--", lw=0.8)
-    axes[2].text(a, reference_travel * 1e3, f" {reference_travel * 1e3:.0f} mm: a real gear's "
-                 "travel (AAR 3-1/4 in)", va="bottom", fontsize=9)
+    axes[2].text(b, reference_travel * 1e3, f"±{reference_travel * 1e3:.0f} mm: a real gear's "
+                 "travel (AAR 3-1/4 in) ", va="bottom", ha="right", fontsize=9)
     axes[0].set_ylabel("reference acceleration\n[m/s²]")
     axes[1].set_ylabel("locomotive force [kN]")
     axes[2].set_ylabel("coupler 1 gear deflection\nbeyond slack [mm]\n(+ draft, − buff)")
@@ -338,6 +338,6 @@ def hunt_figure(results, path, t_range: tuple[float, float] = (0.0, 120.0),
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.tick_params(labelsize=9)
-        ax.legend(fontsize=9, loc="upper right")
+    axes[0].legend(fontsize=9, loc="upper right")
     axes[2].set_xlim(a, b)
     return _save(fig, path)
