@@ -22,6 +22,19 @@ import xarray as xr
 
 from ltdsim.scenario import Scenario
 
+#: Overrides that turn scenarios/paper.toml back into the reading ltdsim used before:
+#: a reference profile with sharp corners (0.8 m/s^2 from rest to 16.72 m/s at 20.9 s,
+#: 0.572 m/s^2 over 120-130 s), the track positions that go with it, and the PID output
+#: multiplied by the train's mass. With it the base run rings at cruise; see
+#: docs/paper-scenario.md and :func:`hunt_figure`.
+PAPER_EARLIER_READING = {
+    "driver.speed_profile": [[0.0, 0.0], [20.9, 16.72], [120.0, 16.72], [130.0, 11.0],
+                             [270.0, 11.0]],
+    "driver.pid.acceleration_of": "train",
+    "track.curve": [[0.0, 0.0], [1079.3, 300.0], [2575.3, 0.0]],
+    "track.gradient": [[0.0, 0.0], [2245.3, 0.005], [3015.3, 0.0]],
+}
+
 
 def oscillation(t, x, f_min: float | None = None, f_max: float = 10.0) -> dict[str, float]:
     """Swing and period of the oscillation in ``x(t)`` (any unit U; ``t`` in s, evenly
@@ -232,8 +245,9 @@ def closed_loop_modes(scenario: Scenario, stiffness: str | float = "draft",
     stiffness, "buff" = k1, or a number in N/m) with their dampers, without slack; Davis
     ``b`` acts on every vehicle. The controller is the scenario's PID in continuous
     form ``kp + ki/s + kd N s/(s + N)`` (its sample time, 1e-4 s in the study, is far
-    faster than any mode), its output times ``demand_mass`` (kg; default the train's
-    total mass, as the kernel does) is the locomotive force, and it reads the speed of
+    faster than any mode), its output times ``demand_mass`` (kg; default as the
+    scenario's ``driver.pid.acceleration_of`` says: the train's total mass or the lead
+    locomotive's) is the locomotive force, and it reads the speed of
     the lead powered vehicle. Traction limits and the resistance feed-forward (a
     function of speed, not of the error) are left out.
 
@@ -277,7 +291,12 @@ def closed_loop_modes(scenario: Scenario, stiffness: str | float = "draft",
     pid = scenario.driver.pid
     s = ct.tf("s")
     ctrl = pid.kp + pid.ki / s + pid.kd * pid.n * s / (s + pid.n)
-    mass = float(m.sum()) if demand_mass is None else float(demand_mass)
+    if demand_mass is not None:
+        mass = float(demand_mass)
+    elif pid.acceleration_of == "locomotive":
+        mass = float(m[scenario.consists()[0].vehicles].sum())
+    else:
+        mass = float(m.sum())
     poles = ct.feedback(mass * ctrl * plant, 1).poles()
     osc = poles[poles.imag > 1e-9]
     wn = np.abs(osc)
