@@ -11,6 +11,7 @@ from ltdsim.physics import (
 )
 
 fin = dict(allow_nan=False, allow_infinity=False)
+INF = np.inf  # no gear travel limit
 speeds = st.floats(-80.0, 80.0, **fin)
 pos = st.floats(0.0, 1e5, **fin)
 
@@ -75,15 +76,15 @@ stiff = st.floats(1e4, 1e8, **fin)
 @given(d=st.floats(-0.2, 0.2, **fin), dd=st.floats(-2, 2, **fin), s=slack, k=stiff,
        c=st.floats(0, 1e5, **fin))
 def test_simplified_coupler_without_k2_and_with_k1_equal_k3_is_the_linear_coupler(d, dd, s, k, c):
-    a = coupler_simplified(d, dd, s, 0.0, c, k, 0.0, k, 0.5)
-    b = coupler_linear(d, dd, s, k, c)
+    a = coupler_simplified(d, dd, s, 0.0, c, k, 0.0, k, 0.5, INF, 0.0)
+    b = coupler_linear(d, dd, s, k, c, INF, 0.0)
     assert_allclose(a, b, rtol=1e-12, atol=1e-9)
 
 
 @given(d=st.floats(-0.2, 0.2, **fin), dd=st.floats(-2, 2, **fin), s=st.floats(1e-4, 0.1, **fin),
        k1=stiff, k2=stiff, k3=stiff, b=st.floats(0, 1e5, **fin), p=st.floats(0, 1e5, **fin))
 def test_couplers_with_slack_are_unilateral_and_silent_in_the_dead_band(d, dd, s, k1, k2, k3, b, p):
-    f = coupler_simplified(d, dd, s, p, b, k1, k2, k3, 0.6)
+    f = coupler_simplified(d, dd, s, p, b, k1, k2, k3, 0.6, INF, 0.0)
     if abs(d) <= s / 2:
         assert f == 0.0
     elif d > 0:
@@ -96,10 +97,11 @@ def test_couplers_with_slack_are_unilateral_and_silent_in_the_dead_band(d, dd, s
 def test_nonlinear_stiffness_fades_as_the_gear_slides_faster(e, v1, v2):
     # draft branch with zero damping: force at equal deflection falls with |rate|
     lo, hi = sorted([v1, v2])
-    f_slow = coupler_simplified(e, lo, 0.0, 0.0, 0.0, 3e6, 2e6, 3e6, 0.6)
-    f_fast = coupler_simplified(e, hi, 0.0, 0.0, 0.0, 3e6, 2e6, 3e6, 0.6)
+    f_slow = coupler_simplified(e, lo, 0.0, 0.0, 0.0, 3e6, 2e6, 3e6, 0.6, INF, 0.0)
+    f_fast = coupler_simplified(e, hi, 0.0, 0.0, 0.0, 3e6, 2e6, 3e6, 0.6, INF, 0.0)
     assert f_fast <= f_slow
-    assert_allclose(coupler_simplified(e, 0.0, 0.0, 0.0, 0.0, 3e6, 2e6, 3e6, 0.6), 5e6 * e)
+    assert_allclose(coupler_simplified(e, 0.0, 0.0, 0.0, 0.0, 3e6, 2e6, 3e6, 0.6, INF, 0.0),
+                    5e6 * e)
 
 
 @settings(max_examples=50)
@@ -110,7 +112,8 @@ def test_simplified_coupler_dissipates_over_a_closed_draft_cycle(amp, freq):
     w = 2 * np.pi * freq
     d = amp * (1 - np.cos(w * t)) / 2 + 0.0125  # stays in draft beyond the dead band
     dd = amp * w * np.sin(w * t) / 2
-    f = coupler_simplified(d, dd, 0.025, 0.0, 999.8706, 8.265776e6, 1.856364e6, 3.4748e6, 0.6)
+    f = coupler_simplified(d, dd, 0.025, 0.0, 999.8706, 8.265776e6, 1.856364e6, 3.4748e6, 0.6,
+                           INF, 0.0)
     work = np.trapezoid(f * dd, t)
     assert work >= -1e-9 * np.max(np.abs(f)) * amp
 

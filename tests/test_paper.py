@@ -58,8 +58,9 @@ def test_base_scenario_obeys_newton_for_the_whole_train(lhhl, paper_path):
     ma = (ds.acceleration.values * m).sum(axis=1)
     davis = (8202.0 * np.sign(v) + 106.56 * v + 11.9322 * v * np.abs(v)).sum(axis=1)
     weight = np.array([v_.weight_mass for v_ in sc.vehicles]) * 9.81
-    on_curve = (ds.position.values >= 1079.3) & (ds.position.values < 2575.3)
-    curve = (weight * 540.0 / 300.0 / 1000.0 * on_curve).sum(axis=1)
+    (_, _), (start, radius), (end, _) = sc.track.curve  # R = 300 m from start to end
+    on_curve = (ds.position.values >= start) & (ds.position.values < end)
+    curve = (weight * 540.0 / radius / 1000.0 * on_curve).sum(axis=1)
     assert_allclose(ma, ds.traction_force.values - davis - curve, atol=1e-6 * 8.63e5)
 
 

@@ -231,7 +231,7 @@ def run(
     from ltdsim.io import save_result
     from ltdsim.scenario import load_scenario
     from ltdsim.simulate import simulate
-    from ltdsim.summary import coupler_summary, critical_rows, run_summary
+    from ltdsim.summary import coupler_summary, critical_rows, run_summary, travel_warning
 
     try:
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
@@ -277,6 +277,9 @@ def run(
         + f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
     _print_motion(ds)
+    warning = travel_warning(ds, sc)
+    if warning:
+        err_console.print(f"[yellow]warning:[/] {escape(warning)}")
     if output is not None:
         save_result(ds, output)
         _say(f"result written to {output}")

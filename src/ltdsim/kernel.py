@@ -125,7 +125,7 @@ from ltdsim.physics.brakes import (
     karwatzki,
 )
 from ltdsim.physics.control import pid_step
-from ltdsim.physics.couplers import coupler_linear, simplified_force
+from ltdsim.physics.couplers import coupler_linear, simplified_force, solid_closure
 from ltdsim.physics.draftgear import (
     hysteresis,
     plate_rate,
@@ -249,11 +249,11 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     else:
         f_l, s_l = table_curve(ctab, int(cpl[j, P_TLOAD]), int(cpl[j, P_NLOAD]), x)
         f_u, s_u = table_curve(ctab, int(cpl[j, P_TUNL]), int(cpl[j, P_NUNL]), x)
-    over = x - cpl[j, P_TRAVEL]
-    if over > 0.0:  # closed solid
-        ks = cpl[j, P_KSOLID]
-        f_l += ks * over
-        f_u += ks * over
+    ks = cpl[j, P_KSOLID]
+    solid = solid_closure(x, cpl[j, P_TRAVEL], ks)
+    if solid > 0.0:  # closed solid
+        f_l += solid
+        f_u += solid
         s_l += ks
         s_u += ks
     if f_u > f_l:
@@ -276,9 +276,11 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
     rates to ``dy[dz0 + offset]``."""
     if model == C_SIMPLIFIED:
         return simplified_force(d, dd, cpl[j, P_SLACK], cpl[j, P_PRELOAD], cpl[j, P_DAMP],
-                                cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_IVC])
+                                cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_IVC],
+                                cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
     if model == C_LINEAR:
-        return coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, P_STIFF], cpl[j, P_DAMP])
+        return coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, P_STIFF], cpl[j, P_DAMP],
+                              cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
     zo = int(cpl[j, P_ZOFF])
     return _gear(j, model, d, dd, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
 

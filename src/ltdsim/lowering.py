@@ -52,6 +52,8 @@ N_CCOL = 39
 #: (wedge gears), impact speed (wedge gears with an S table)
 N_GEAR_STATES = 3
 # traction parameter vector
+# (T_AMAX, T_DMAX: the speed controller's output limits, T_MTOT: the mass its output
+# multiplies; see lower)
 T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF = range(9)
 # driver and brake parameter vector: PID; brake schedule and position triggers (offsets
 # and lengths in the table store); controller-made applications (0/1), their level
@@ -145,11 +147,14 @@ def lower(s: Scenario) -> Lowered:
             c.slack, c.preload, c.damping, c.stiffness or 0.0, c.k1 or 0.0, c.k2, c.k3 or 0.0,
             1.0 / (c.v_c or 1.0), sign0 * 0.5 * c.slack]
         row[P_ZOFF] = -1.0
+        # gear travel beyond the slack (the table gear's default is set below); a linear or
+        # simplified coupler without one never closes solid
+        row[P_TRAVEL] = np.inf if c.travel is None else c.travel
+        row[P_KSOLID] = c.solid_stiffness
         if c.model in ("friction_wedge", "table"):
             row[P_ZOFF] = nz
             row[P_RATE] = 1.0 / (c.tracking_time or 4.0 * dt_ref)
             row[P_KLOCK] = c.k_locked
-            row[P_KSOLID] = c.solid_stiffness
             row[P_F0] = released_force(c)
             # states: internal force (starting released, on the loading curve at 0);
             # wedge gears: plate displacement; with an S table: impact speed
@@ -207,8 +212,17 @@ def lower(s: Scenario) -> Lowered:
         cons[k, K_RATE] = jerk * m_total * share
 
     ref = int(cons[0, K_VEH])  # the lead consist's first vehicle measures speed
-    trac = np.array([cons[0, K_FMAX], cons[0, K_PMAX], cons[0, K_MADH], t.max_accel,
-                     t.max_decel, 1.0 if t.feedforward else 0.0, m_total, g, float(ref)])
+    # the speed controller's output is a demanded acceleration of the train (force =
+    # output x train mass) or of the lead locomotive (x its own mass); either way
+    # max_accel and max_decel limit the train's acceleration, so the output's clip
+    # scales with the ratio of the masses
+    m_demand = m_total
+    if d.mode == "speed" and d.pid.acceleration_of == "locomotive":
+        m_demand = float(veh[consists[0].vehicles, V_MASS].sum())
+    ratio = m_total / m_demand  # (exactly 1 for the train)
+    trac = np.array([cons[0, K_FMAX], cons[0, K_PMAX], cons[0, K_MADH],
+                     t.max_accel * ratio, t.max_decel * ratio,
+                     1.0 if t.feedforward else 0.0, m_demand, g, float(ref)])
 
     drv = np.zeros(N_DRV)
     if d.mode == "speed":
@@ -217,7 +231,7 @@ def lower(s: Scenario) -> Lowered:
         drv[:D_EVERY + 1] = [MODE_SPEED, pid.kp, pid.ki, pid.kd, pid.n, pid.ts,
                              METHODS[pid.integrator], METHODS[pid.filter], round(every)]
         drv[D_AW] = 1.0 if pid.anti_windup else 0.0
-        prof = np.array(d.speed_profile, dtype=float).reshape(-1, 2)
+        prof = np.column_stack(rounded_profile(d.speed_profile))
     elif d.mode == "force":
         drv[D_MODE] = MODE_FORCE
         drv[D_EVERY] = 1
@@ -288,6 +302,42 @@ def lower(s: Scenario) -> Lowered:
     )
 
 
+def rounded_profile(points, step: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """The speed reference as piecewise-linear ``(t, v)`` arrays (s, m/s).
+
+    ``points`` are ``[t, v]`` or ``[t, v, T]``. A jerk time ``T`` (s) rounds the corner at
+    that point: over ``T`` centred on it the acceleration changes linearly from the slope
+    before to the slope after (constant jerk ``(a_after - a_before) / T``), so the speed
+    follows a parabola tangent to both straight segments, which are kept outside the
+    rounding. The parabola is sampled every ``step`` s or finer (the largest speed
+    error of the sampling is ``jerk x step^2 / 8``). Without jerk times the points are
+    returned as they are.
+    """
+    t = np.array([p[0] for p in points], dtype=float)
+    v = np.array([p[1] for p in points], dtype=float)
+    blend = np.array([p[2] if len(p) == 3 else 0.0 for p in points], dtype=float)
+    if not (blend > 0.0).any():
+        return t, v
+    slope = np.diff(v) / np.diff(t)
+    out_t, out_v = [t[0]], [v[0]]
+    for k in range(1, t.size):
+        if k < t.size - 1 and blend[k] > 0.0:
+            a0, a1, T = slope[k - 1], slope[k], blend[k]
+            ts = t[k] - 0.5 * T
+            n = max(int(np.ceil(T / step)), 2)
+            tau = np.linspace(0.0, T, n + 1)
+            # v(ts + tau) on the incoming line, plus the parabola of the changing slope
+            vs = v[k] - a0 * 0.5 * T + a0 * tau + 0.5 * (a1 - a0) * tau**2 / T
+            out_t.extend(ts + tau)
+            out_v.extend(vs)
+        else:
+            out_t.append(t[k])
+            out_v.append(v[k])
+    t_out, v_out = np.array(out_t), np.array(out_v)
+    keep = np.concatenate([[True], np.diff(t_out) > 1e-12])  # touching rounded corners
+    return t_out[keep], v_out[keep]
+
+
 def _append(tables: list[float], values) -> int:
     """Append values to the flat table store and return their offset."""
     off = len(tables)
@@ -303,7 +353,6 @@ def _lower_wedge(c, row, tables) -> None:
     row[[P_H1, P_H2, P_H3]] = c.h1, c.h2, c.h3
     row[[P_KM, P_XM0, P_KR, P_XR0, P_GAP, P_BACK]] = (c.k_m, c.x_m0, c.k_r, c.x_r0,
                                                       c.plate_gap, c.plate_backlash)
-    row[P_TRAVEL] = c.travel
     row[P_STAB] = -1.0
     if c.S_table is not None:
         t = c.S_table

@@ -71,7 +71,8 @@ class DeflectionObjective:
 
     def force(self, values) -> np.ndarray:
         b, k1, k2, k3, v_c = values
-        return coupler_simplified(self.d, self.dd, self.slack, 0.0, b, k1, k2, k3, v_c)
+        return coupler_simplified(self.d, self.dd, self.slack, 0.0, b, k1, k2, k3, v_c,
+                                  np.inf, 0.0)
 
     def __call__(self, log_values) -> float:
         err = self.force(10.0 ** np.asarray(log_values)) - self.target

@@ -17,8 +17,9 @@ import numpy as np
 
 from ltdsim.lowering import (
     C_LINEAR, C_SIMPLIFIED, D_KD, D_KI, D_KP, D_MODE, D_N, K_TAU, MODE_NOTCH, MODE_SPEED, P_D0,
-    P_DAMP, P_K1, P_K2, P_K3, P_PRELOAD, P_SLACK, P_STIFF, P_IVC, T_AMAX, T_DMAX, T_FF, T_FMAX,
-    T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_DA, V_DB, V_DC, V_DIV0, V_MASS, V_P0, V_SHARE, V_WMASS, lower,
+    P_DAMP, P_IVC, P_K1, P_K2, P_K3, P_KSOLID, P_PRELOAD, P_SLACK, P_STIFF, P_TRAVEL, T_AMAX,
+    T_DMAX, T_FF, T_FMAX, T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_DA, V_DB, V_DC, V_DIV0, V_MASS,
+    V_P0, V_SHARE, V_WMASS, lower,
 )
 from ltdsim.physics import (
     coupler_linear, coupler_simplified, curve_resistance, davis_resistance, grade_resistance,
@@ -63,9 +64,11 @@ def make_rhs(scenario: Scenario):
         dd = v[:-1] - v[1:]
         tension = np.where(
             linear,
-            coupler_linear(d, dd, cpl[:, P_SLACK], cpl[:, P_STIFF], cpl[:, P_DAMP]),
+            coupler_linear(d, dd, cpl[:, P_SLACK], cpl[:, P_STIFF], cpl[:, P_DAMP],
+                           cpl[:, P_TRAVEL], cpl[:, P_KSOLID]),
             coupler_simplified(d, dd, cpl[:, P_SLACK], cpl[:, P_PRELOAD], cpl[:, P_DAMP],
-                               cpl[:, P_K1], cpl[:, P_K2], cpl[:, P_K3], 1.0 / cpl[:, P_IVC]))
+                               cpl[:, P_K1], cpl[:, P_K2], cpl[:, P_K3], 1.0 / cpl[:, P_IVC],
+                               cpl[:, P_TRAVEL], cpl[:, P_KSOLID]))
         extra = []
         if speed:
             e = np.interp(t, low.prof_t, low.prof_y) - v[ref]

@@ -50,7 +50,7 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
     xs = [p[0] for p in points]
     if any(b <= a for a, b in zip(xs, xs[1:])):
         raise ValueError(f"the first column ({what}) must be strictly increasing, got {xs}")
-    bad = [y for _, y in points if not ok(y)]
+    bad = [p[1] for p in points if not ok(p[1])]
     if bad:
         raise ValueError(f"the second column must be {allowed}, got {bad}")
     return points
@@ -234,10 +234,14 @@ class CouplerParams(_Strict):
     x_r0: float | None = Field(None, ge=0.0, le=1.0, description="release pre-deflection, m")
     plate_gap: float | None = Field(None, ge=0.0, le=1.0, description="m")
     plate_backlash: float = Field(0.003, ge=0.0, le=1.0, description="m")
+    # every model: gear travel beyond the slack to solid closure (optional for linear and
+    # simplified, required for friction_wedge, table: its last point) and the solid gear's
+    # stiffness (physics.couplers.solid_closure)
+    travel: float | None = Field(None, gt=0.0, le=1.0,
+                                 description="gear travel beyond the slack to closure, m")
+    solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12, description="beyond travel, N/m")
     # friction_wedge and table
     k_locked: float | None = Field(None, gt=0.0, le=1e11, description="locked stiffness, N/m")
-    travel: float | None = Field(None, gt=0.0, le=1.0, description="travel to closure, m")
-    solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12, description="beyond travel, N/m")
     tracking_time: float | None = Field(None, gt=0.0, le=1.0,
                                         description="internal-state time constant, s")
     # table
@@ -420,12 +424,20 @@ class PID(_Strict):
     filter: Literal["forward_euler", "backward_euler"] = "backward_euler"
     anti_windup: bool = Field(False, description="hold the integrator while the demand is "
                                                  "clipped or the drives are saturated")
+    acceleration_of: Literal["train", "locomotive"] = Field(
+        "train", description="whose acceleration the output demands: the force is the "
+                             "output times the train's or the lead locomotive's mass")
+
+
+#: profile points ``[t, v]``, or ``[t, v, jerk_time]`` to round the corner at that point
+SpeedPoints = list[Union[tuple[float, float], tuple[float, float, float]]]
 
 
 class Driver(_Strict):
     mode: Literal["speed", "force", "notch"] = "speed"
-    speed_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
-                                  description="[t s, v m/s]")
+    speed_profile: SpeedPoints = Field(
+        default_factory=lambda: [(0.0, 0.0)],
+        description="[t s, v m/s] or [t s, v m/s, jerk time s] (corner rounded)")
     pid: PID | None = None
     force_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                                   description="[t s, F N]")
@@ -441,7 +453,22 @@ class Driver(_Strict):
     @field_validator("speed_profile")
     @classmethod
     def _speeds(cls, v):
-        return _check_table(v, "times, s", lambda s: 0.0 <= s <= 150.0, "in [0, 150] m/s")
+        _check_table(v, "times, s", lambda s: 0.0 <= s <= 150.0, "in [0, 150] m/s")
+        blend = [p[2] if len(p) == 3 else 0.0 for p in v]
+        for k, b in enumerate(blend):
+            if not 0.0 <= b <= 600.0:
+                raise ValueError(f"point {k}: the jerk time (third number) must lie in "
+                                 f"[0, 600] s, got {b}")
+            if b > 0.0 and k in (0, len(v) - 1):
+                raise ValueError(f"point {k}: the first and last points cannot round a "
+                                 "corner (give a jerk time on interior points only)")
+        for k in range(len(v) - 1):
+            gap = v[k + 1][0] - v[k][0]
+            if 0.5 * (blend[k] + blend[k + 1]) > gap + 1e-9:
+                raise ValueError(f"points {k} and {k + 1}: their rounded corners overlap "
+                                 f"(half jerk times {0.5 * blend[k]:g} s + "
+                                 f"{0.5 * blend[k + 1]:g} s exceed the {gap:g} s between them)")
+        return v
 
     @field_validator("force_profile")
     @classmethod

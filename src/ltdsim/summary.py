@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import xarray as xr
+
+#: m: rating travel of an AAR M-901 draft gear of 3-1/4 in (82.55 mm), the reference
+#: against which gears without a stated travel (the study's simplified coupler) are checked
+REFERENCE_TRAVEL = 0.083
 
 
 def coupler_summary(ds: xr.Dataset) -> pd.DataFrame:
@@ -39,9 +45,16 @@ def critical_rows(table: pd.DataFrame, limit: int = 20) -> pd.DataFrame:
 
 def run_summary(ds: xr.Dataset) -> dict[str, float]:
     """Scalar facts of a run: RMS and max speed error (m/s), max |acceleration| (m/s^2),
-    peak traction (N), and whether traction ever exceeded adhesion."""
+    peak traction (N), whether traction ever exceeded adhesion, the largest gear
+    deflection beyond the slack (m) and how many couplers exceed their travel (or the
+    reference travel, :func:`gear_travel_check`)."""
     err = ds.speed_error.values
     finite = np.isfinite(err)
+    gears = {}
+    if "scenario_json" in ds.attrs and ds.sizes.get("coupler", 0):
+        table = gear_travel_check(ds)
+        gears = {"max_gear_deflection_m": float(table.max_deflection_m.max()),
+                 "couplers_beyond_travel": int(table.exceeds.sum())}
     return {
         "rms_speed_error_m_s": float(np.sqrt(np.mean(err[finite] ** 2))) if finite.any() else float("nan"),
         "max_speed_error_m_s": float(np.max(np.abs(err[finite]))) if finite.any() else float("nan"),
@@ -54,6 +67,7 @@ def run_summary(ds: xr.Dataset) -> dict[str, float]:
         "simulated_s": float(ds.time.values[-1]),
         "wall_time_s": float(ds.attrs.get("wall_time_s", float("nan"))),
         "compile_time_s": float(ds.attrs.get("compile_time_s", 0.0)),
+        **gears,
     }
 
 
@@ -115,3 +129,75 @@ def speeds(ds: xr.Dataset) -> dict[str, float]:
     """The lead vehicle's largest and final speed, m/s."""
     v = ds.velocity.values[:, 0]
     return {"max_speed_m_s": float(np.abs(v).max()), "final_speed_m_s": float(v[-1])}
+
+
+def gear_travel_check(ds: xr.Dataset, scenario=None,
+                      reference_travel: float = REFERENCE_TRAVEL) -> pd.DataFrame:
+    """How far each gear deflected beyond its slack, against its travel.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A result of :func:`ltdsim.simulate` (its recorded ``coupler_deflection``; peaks
+        between recorded samples are not seen).
+    scenario : Scenario, optional
+        The scenario that made ``ds``; by default the one stored in the result.
+    reference_travel : float
+        Travel, m, for gears without a stated ``travel`` (the linear and simplified
+        couplers unless one is given): default 0.083 m, an AAR M-901 gear of 3-1/4 in.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by coupler (0 = between vehicles 0 and 1, as ``ds.coupler``):
+        ``slack_m`` (total free play), ``travel_m`` (the travel checked against),
+        ``travel_stated`` (True if the coupler has its own ``travel``, False if the
+        reference is used), ``max_draft_m`` and ``max_buff_m`` (largest gear deflection
+        beyond the slack in draft and in buff, >= 0), ``max_deflection_m`` (the larger),
+        ``excess_m`` (beyond the travel, >= 0) and ``exceeds`` (bool).
+    """
+    if scenario is None:
+        from ltdsim.scenario import Scenario
+
+        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    d = ds.coupler_deflection.values
+    nc = d.shape[1]
+    params = [scenario.coupler(j) for j in range(nc)]
+    half = 0.5 * np.array([c.slack for c in params])
+    stated = np.array([c.travel is not None for c in params], dtype=bool)
+    travel = np.array([c.travel if c.travel is not None else reference_travel for c in params])
+    if d.shape[0]:
+        draft = np.clip(d.max(axis=0) - half, 0.0, None)
+        buff = np.clip(-d.min(axis=0) - half, 0.0, None)
+    else:
+        draft = buff = np.zeros(nc)
+    largest = np.maximum(draft, buff)
+    excess = np.clip(largest - travel, 0.0, None)
+    return pd.DataFrame({
+        "coupler": ds.coupler.values, "slack_m": 2.0 * half, "travel_m": travel,
+        "travel_stated": stated, "max_draft_m": draft, "max_buff_m": buff,
+        "max_deflection_m": largest, "excess_m": excess, "exceeds": excess > 0.0,
+    }).set_index("coupler")
+
+
+def travel_warning(ds: xr.Dataset, scenario=None,
+                   reference_travel: float = REFERENCE_TRAVEL) -> str | None:
+    """One line naming the couplers (counted from 1, coupler 1 behind the lead vehicle)
+    whose gears deflected beyond their travel (see :func:`gear_travel_check`) and by how
+    much, mm; None when none did."""
+    table = gear_travel_check(ds, scenario, reference_travel)
+    over = table[table.exceeds]
+    if over.empty:
+        return None
+    parts = [f"{j + 1} by {row.excess_m * 1e3:.0f} mm" for j, row in over.iterrows()]
+    stated = over.travel_stated.all()
+    reference = f"{reference_travel * 1e3:.0f} mm, a real gear's travel (AAR 3-1/4 in)"
+    if stated:
+        limit = "their stated travel"
+    elif not over.travel_stated.any():
+        limit = reference
+    else:
+        limit = f"their travel (stated, or {reference})"
+    worst = over.max_deflection_m.max()
+    return (f"gears deflect beyond {limit}: coupler{'s' if len(over) > 1 else ''} "
+            f"{', '.join(parts)} (largest deflection beyond the slack {worst * 1e3:.0f} mm)")

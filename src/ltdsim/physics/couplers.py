@@ -9,6 +9,12 @@ Outside it the gear deflection is ``e = d - sign(d) s / 2`` and ``de/dt = dd/dt`
 With slack, the two sides are in unilateral contact: a gear in draft can only pull
 (``T >= 0``) and a gear in buff can only push (``T <= 0``), so a damper cannot glue
 separating faces together. Without slack the coupling is a continuous spring-damper.
+
+Solid closure: a gear can travel only so far. Beyond its ``travel`` (m of gear
+deflection past the slack) it closes solid and :func:`solid_closure` adds
+``solid_stiffness * (|e| - travel)`` in the direction of the deflection. The hysteretic
+gears (:mod:`ltdsim.physics.draftgear`, through the kernel) and the linear and simplified
+couplers use this same law; ``travel = inf`` is a gear without a stated limit.
 """
 
 from __future__ import annotations
@@ -32,11 +38,22 @@ def contact(f, e, slack):
     return f
 
 
-@vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
-def coupler_linear(d, dd, slack, stiffness, damping):
+@njit(cache=True, inline="always")
+def solid_closure(x, travel, stiffness):
+    """Force added by a gear closed solid, N: ``stiffness * (x - travel)`` once the gear
+    deflection ``x >= 0`` (m, a magnitude) passes its ``travel`` (m), else 0.
+    ``stiffness`` (N/m) is the stiffness of the solid gear; ``travel = inf`` never
+    closes."""
+    return stiffness * max(x - travel, 0.0)  # (no inf x 0 when travel is inf)
+
+
+@vectorize(["float64(float64, float64, float64, float64, float64, float64, float64)"],
+           cache=True)
+def coupler_linear(d, dd, slack, stiffness, damping, travel, solid_stiffness):
     """Linear spring-damper coupler with a slack dead band, N (+ tension).
 
-    ``T = k e + c de/dt`` outside the dead band, 0 inside it.
+    ``T = k e + c de/dt`` outside the dead band, 0 inside it; beyond ``travel`` the gear
+    is solid (:func:`solid_closure`).
 
     Parameters
     ----------
@@ -50,31 +67,39 @@ def coupler_linear(d, dd, slack, stiffness, damping):
         Spring stiffness ``k``, N/m.
     damping : float
         Viscous damping ``c``, N s/m.
+    travel : float
+        Gear deflection beyond the slack at which the gear goes solid, m (``inf``: none).
+    solid_stiffness : float
+        Stiffness of the solid gear beyond ``travel``, N/m.
     """
     h = 0.5 * slack
     if d > h:
         e = d - h
+        f = stiffness * e + solid_closure(e, travel, solid_stiffness)
     elif d < -h:
         e = d + h
+        f = stiffness * e - solid_closure(-e, travel, solid_stiffness)
     elif slack > 0.0:
         return 0.0
     else:
         return damping * dd  # no slack and d == 0 exactly: only the damper acts
-    return contact(stiffness * e + damping * dd, e, slack)
+    return contact(f + damping * dd, e, slack)
 
 
 @njit(cache=True, inline="always")
-def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc):
+def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc, travel,
+                     solid_stiffness):
     """:func:`coupler_simplified` with the critical velocity given as its inverse
     ``inv_vc = 1 / v_c`` (s/m), as the kernel stores it (a multiplication in the inner
     loop instead of a division), N."""
     h = 0.5 * slack
     if d > h:
         e = d - h
-        f = preload + (k3 + k2 * exp_neg(abs(dd) * inv_vc)) * e + damping * dd
+        f = (preload + (k3 + k2 * exp_neg(abs(dd) * inv_vc)) * e + damping * dd
+             + solid_closure(e, travel, solid_stiffness))
     elif d < -h:
         e = d + h
-        f = -preload + k1 * e + damping * dd
+        f = -preload + k1 * e + damping * dd - solid_closure(-e, travel, solid_stiffness)
     elif slack > 0.0:
         return 0.0
     else:
@@ -83,14 +108,17 @@ def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc):
 
 
 @vectorize(
-    ["float64(float64, float64, float64, float64, float64, float64, float64, float64, float64)"],
+    ["float64(float64, float64, float64, float64, float64, float64, float64, float64, float64, "
+     "float64, float64)"],
     cache=True,
 )
-def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
+def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c, travel,
+                       solid_stiffness):
     """The study's simplified nonlinear coupler (paper Eq. 9), N.
 
     Draft (``e > 0``): ``T = P + (k3 + k2 exp(-|de/dt| / v_c)) e + b de/dt``.
-    Buff (``e < 0``): ``T = -P + k1 e + b de/dt``. Zero inside the dead band.
+    Buff (``e < 0``): ``T = -P + k1 e + b de/dt``. Zero inside the dead band. Beyond
+    ``travel`` the gear is solid (:func:`solid_closure`).
 
     The nonlinear stiffness ``k2`` fades as the gear slides faster, like the
     static-to-kinetic friction law; ``|de/dt|`` keeps it from feeding energy in. Why Eq. 9
@@ -116,5 +144,10 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c):
         Linear (draft) stiffness, N/m.
     v_c : float
         Critical velocity, m/s.
+    travel : float
+        Gear deflection beyond the slack at which the gear goes solid, m (``inf``: none).
+    solid_stiffness : float
+        Stiffness of the solid gear beyond ``travel``, N/m.
     """
-    return simplified_force(d, dd, slack, preload, damping, k1, k2, k3, 1.0 / v_c)
+    return simplified_force(d, dd, slack, preload, damping, k1, k2, k3, 1.0 / v_c, travel,
+                            solid_stiffness)
