@@ -147,7 +147,8 @@ def _scenario(ds: xr.Dataset, scenario: Scenario | None) -> Scenario:
 
 def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
                          window: tuple[float, float] | None = None,
-                         reference_travel: float = 0.083) -> dict:
+                         reference_travel: float = 0.083,
+                         f_min: float | None = None) -> dict:
     """The numbers that show whether, and why, a speed-controlled run rings.
 
     Parameters
@@ -161,6 +162,10 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
     reference_travel : float
         Travel, m, for gears without a stated one (see
         :func:`ltdsim.summary.gear_travel_check`).
+    f_min : float, optional
+        Lowest frequency, Hz, taken for the swing's dominant oscillation (default: two
+        cycles in the window); e.g. half the train's lowest mode, so that the slow
+        change of force over a grade or a curve does not count as a swing.
 
     Returns
     -------
@@ -188,8 +193,8 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
     a, b = cruise_window(ds) if window is None else window
     sel = ds.sel(time=slice(a, b))
     t = sel.time.values
-    trac = oscillation(t, sel.traction_force.values)
-    c1 = oscillation(t, sel.coupler_force.values[:, 0])
+    trac = oscillation(t, sel.traction_force.values, f_min)
+    c1 = oscillation(t, sel.coupler_force.values[:, 0], f_min)
     err = ds.speed_error.values
     gears = gear_travel_check(ds, sc, reference_travel)
     powered = np.array([v.powered for v in sc.vehicles])

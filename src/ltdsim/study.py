@@ -27,6 +27,8 @@ import json
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 from ltdsim._provenance import code_hash
 from ltdsim.errors import ScenarioError
 from ltdsim.io import atomic_path, save_result
@@ -209,8 +211,55 @@ def _stage_base(out, cache, scenario: Scenario):
         "summary": run_summary(ds),
         "max_abs_acceleration_m_s2": abs(ds.acceleration).max("time").values.tolist(),
         "samples": int(ds.sizes["time"]),
+        "diagnosis": _diagnosis(ds, scenario, out / "fig_base_run.png"),
     }
-    return cache.put("base", key, value, [nc_path, *figs])
+    extra = [Path(value["diagnosis"]["figure"])] if value["diagnosis"] else []
+    return cache.put("base", key, value, [nc_path, *figs, *extra])
+
+
+def _jsonable(d: dict) -> dict:
+    return {k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in d.items()}
+
+
+def _diagnosis(ds, scenario: Scenario, figure: Path) -> dict | None:
+    """Is the base run violent, and whose is it: the run's diagnostics, the lowest
+    closed-loop mode with the PID output read as the locomotive's and as the train's
+    acceleration, and the same train under the reading ltdsim used before (sharp
+    reference corners, the output times the train's mass) with a figure of both."""
+    from ltdsim.diagnostics import (PAPER_EARLIER_READING, base_run_diagnostics,
+                                    closed_loop_modes, hunt_figure)
+    from ltdsim.errors import LtdsimError
+    from ltdsim.simulate import simulate
+
+    if scenario.driver.mode != "speed":
+        return None
+    try:
+        earlier_sc = scenario.with_overrides(PAPER_EARLIER_READING, source="earlier reading")
+    except LtdsimError:
+        return None
+    earlier = simulate(earlier_sc)
+    hunt_figure({"this run": ds, "earlier reading": earlier}, figure)
+    masses = {"locomotive": scenario.vehicles[scenario.consists()[0].vehicles[0]].mass,
+              "train": sum(v.mass for v in scenario.vehicles)}
+    loop = {}
+    for name, mass in masses.items():
+        modes = closed_loop_modes(scenario, "draft", mass)
+        loop[name] = modes.iloc[0].to_dict() if len(modes) else None
+    first = [p for p in scenario.phases if p.name == "acceleration"]
+    window = (first[0].start, first[0].end) if first else (0.0, 10.0)
+
+    def coupler1_peak(result):
+        return float(abs(result.coupler_force.sel(time=slice(*window)).values[:, 0]).max())
+
+    now = base_run_diagnostics(ds, scenario)
+    # a swing is a ring of the train's modes: slower changes (grades, curves) are not one
+    f_min = 0.5 * now["held_mode_hz"] if np.isfinite(now["held_mode_hz"]) else None
+    return {"now": _jsonable(base_run_diagnostics(ds, scenario, f_min=f_min)),
+            "earlier": _jsonable(base_run_diagnostics(earlier, earlier_sc, f_min=f_min)),
+            "coupler1_peak_acceleration_N": {"now": coupler1_peak(ds),
+                                             "earlier": coupler1_peak(earlier)},
+            "acceleration_of": scenario.driver.pid.acceleration_of,
+            "closed_loop": loop, "figure": str(figure)}
 
 
 def _stage_modal(out, cache, scenario: Scenario):
