@@ -36,6 +36,9 @@ def _rig(mode, model, cpl, ctab, mass, t_tab, a_tab, b_tab, dt, n_steps, A, B, C
     ``y = [d, d', gear states]``."""
     ny = y.shape[0]
     ns = B.shape[0]
+    # the coupler's index typed int64, not as the literal 0 (a type of its own): the rig
+    # then uses the gear function the train kernels compiled (kernel._gear)
+    j = np.int64(0)
     K = work[0:ns * ny]
     ytmp = work[ns * ny:ns * ny + ny]
     inc = work[ns * ny + ny:ns * ny + 2 * ny]
@@ -54,7 +57,7 @@ def _rig(mode, model, cpl, ctab, mass, t_tab, a_tab, b_tab, dt, n_steps, A, B, C
             if mode == MODE_DEFLECTION:
                 ytmp[0] = _interp(t_tab, a_tab, ts, hints, 0)
                 ytmp[1] = _interp(t_tab, b_tab, ts, hints, 1)
-            f = coupler_force(0, model, ytmp[0], ytmp[1], ytmp, 2, K, o + 2, cpl, ctab)
+            f = coupler_force(j, model, ytmp[0], ytmp[1], ytmp, 2, K, o + 2, cpl, ctab)
             if mode == MODE_DEFLECTION:
                 K[o] = 0.0
                 K[o + 1] = 0.0
