@@ -18,6 +18,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, Ti
 from rich.table import Table
 
 from ltdsim.errors import LtdsimError, ScenarioError, SimulationError
+from ltdsim.progress import Display
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="ltdsim: longitudinal train dynamics simulation and analysis.")
@@ -99,18 +100,20 @@ def run(
     from ltdsim.scenario import load_scenario
     from ltdsim.simulate import simulate
     from ltdsim.summary import coupler_summary, critical_rows, run_summary
+    from ltdsim.warmup import scenario_kernels, warm_up
 
     try:
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
-        label = escape(f"{sc.name}" + (f" [{sc.case}]" if sc.case else ""))  # see _table
-        with Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                      TextColumn("{task.completed:.1f}/{task.total:.1f} s simulated"),
-                      TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,
-                      disable=quiet, transient=False) as prog:
-            task = prog.add_task(f"simulating {label}", total=sc.solver.n_steps * sc.solver.dt)
-            ds = simulate(sc, progress=lambda done, total: prog.update(task, completed=done))
+        name = f"{sc.name}" + (f" [{sc.case}]" if sc.case else "")
+        label = escape(name)  # see _table
+        with Display(err_console, quiet=quiet) as show:
+            warm_up(scenario_kernels([sc]), show.compiling)
+            update = show.bar(f"simulating {name}", sc.solver.n_steps * sc.solver.dt,
+                              "s simulated", "{:.1f}")
+            update(0.0)
+            ds = simulate(sc, progress=lambda done, total: update(done))
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
@@ -399,14 +402,13 @@ def sweep(
     except ScenarioError as exc:
         _fail(exc)
         return
-    with Progress(TextColumn("[bold]sweep"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} cases"), TimeElapsedColumn(),
-                  TimeRemainingColumn(), console=err_console) as prog:
-        task = prog.add_task("sweep", total=len(spec.cases))
+    with Display(err_console) as show:
+        update = show.bar("sweep", len(spec.cases), "cases")
         try:
             summary = sw.run_sweep(spec, output, scheduler=scheduler, workers=workers,
                                    keep_results=keep_results, retry_failed=retry_failed,
-                                   progress=lambda d, n, c: prog.update(task, completed=d))
+                                   progress=lambda d, n, c: update(d),
+                                   on_compile=show.compiling)
         except KeyboardInterrupt:
             err_console.print("[yellow]interrupted: finished cases are kept; run the same "
                               "command again to resume[/]")
@@ -637,12 +639,10 @@ def study(
 
     try:
         overrides = parse_set(set_) if set_ else None
-        with Progress(TextColumn("[bold]{task.description}"), TextColumn("{task.fields[msg]}"),
-                      TimeElapsedColumn(), console=err_console) as prog:
-            task = prog.add_task("study", msg="")
+        with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
-                              workers=workers,
-                              progress=lambda st, msg: prog.update(task, description=st, msg=msg))
+                              workers=workers, progress=show.stage, on_compile=show.compiling)
+            show.done(f"report written to {index}")
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
