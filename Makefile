@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e ".[test]"
 	touch $(STAMP)
 
-## run: reproduce the whole study as one report in report/ (1-2 minutes)
+## run: reproduce the whole study as one report in report/ (about 70 s; 2.5 min the first time)
 run: $(STAMP)
 	$(BIN)/ltdsim study scenarios/paper.toml --output report
 

@@ -15,11 +15,12 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
 
 from ltdsim.errors import LtdsimError, ScenarioError, SimulationError
+from ltdsim.progress import Display
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="ltdsim: longitudinal train dynamics simulation and analysis.")
@@ -232,6 +233,7 @@ def run(
     from ltdsim.scenario import load_scenario
     from ltdsim.simulate import simulate
     from ltdsim.summary import coupler_summary, critical_rows, run_summary, travel_warning
+    from ltdsim.warmup import scenario_kernels, warm_up
 
     try:
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
@@ -240,14 +242,13 @@ def run(
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
-        label = _label(sc)  # plain text: _table keeps it so; markup gets it escaped
-        with Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                      TextColumn("{task.completed:.1f}/{task.total:.1f} s simulated"),
-                      TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,
-                      disable=quiet, transient=False) as prog:
-            task = prog.add_task(escape(f"simulating {label}"),
-                                 total=sc.solver.n_steps * sc.solver.dt)
-            ds = simulate(sc, progress=lambda done, total: prog.update(task, completed=done))
+        label = _label(sc)  # plain text: _table keeps it so
+        with Display(err_console, quiet=quiet) as show:
+            warm_up(scenario_kernels([sc]), show.compiling)
+            update = show.bar(f"simulating {label}", sc.solver.n_steps * sc.solver.dt,
+                              "s simulated", "{:.1f}")
+            update(0.0)
+            ds = simulate(sc, progress=lambda done, total: update(done))
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
@@ -593,14 +594,13 @@ def sweep(
     except ScenarioError as exc:
         _fail(exc)
         return
-    with Progress(TextColumn("[bold]sweep"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total} cases"), TimeElapsedColumn(),
-                  TimeRemainingColumn(), console=err_console) as prog:
-        task = prog.add_task("sweep", total=len(spec.cases))
+    with Display(err_console) as show:
+        update = show.bar("sweep", len(spec.cases), "cases")
         try:
             summary = sw.run_sweep(spec, output, scheduler=scheduler, workers=workers,
                                    keep_results=keep_results, retry_failed=retry_failed,
-                                   progress=lambda d, n, c: prog.update(task, completed=d))
+                                   progress=lambda d, n, c: update(d),
+                                   on_compile=show.compiling)
         except KeyboardInterrupt:
             err_console.print("[yellow]interrupted: finished cases are kept; run the same "
                               "command again to resume[/]")
@@ -895,12 +895,11 @@ def study(
 
     try:
         overrides = parse_set(set_) if set_ else None
-        with Progress(TextColumn("[bold]{task.description}"), TextColumn("{task.fields[msg]}"),
-                      TimeElapsedColumn(), console=err_console) as prog:
-            task = prog.add_task("study", msg="")
+        with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
-                              workers=workers, force=force,
-                              progress=lambda st, msg: prog.update(task, description=st, msg=msg))
+                              workers=workers, force=force, progress=show.stage,
+                              on_compile=show.compiling)
+            show.done(f"report written to {index}")
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
@@ -908,7 +907,7 @@ def study(
         err_console.print("[yellow]interrupted: finished stages and cases are kept; run the "
                           "same command again to resume[/]")
         raise typer.Exit(130) from None
-    console.print(f"report written to {index}")
+    _say(f"report written to {index}")
 
 
 def main() -> None:  # pragma: no cover - console entry

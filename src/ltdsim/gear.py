@@ -36,6 +36,9 @@ def _rig(mode, model, cpl, ctab, mass, t_tab, a_tab, b_tab, dt, n_steps, A, B, C
     ``y = [d, d', gear states]``."""
     ny = y.shape[0]
     ns = B.shape[0]
+    # the coupler's index typed int64, not as the literal 0 (a type of its own): the rig
+    # then uses the gear function the train kernels compiled (kernel._gear)
+    j = np.int64(0)
     K = work[0:ns * ny]
     ytmp = work[ns * ny:ns * ny + ny]
     inc = work[ns * ny + ny:ns * ny + 2 * ny]
@@ -54,7 +57,7 @@ def _rig(mode, model, cpl, ctab, mass, t_tab, a_tab, b_tab, dt, n_steps, A, B, C
             if mode == MODE_DEFLECTION:
                 ytmp[0] = _interp(t_tab, a_tab, ts, hints, 0)
                 ytmp[1] = _interp(t_tab, b_tab, ts, hints, 1)
-            f = coupler_force(0, model, ytmp[0], ytmp[1], ytmp, 2, K, o + 2, cpl, ctab)
+            f = coupler_force(j, model, ytmp[0], ytmp[1], ytmp, 2, K, o + 2, cpl, ctab)
             if mode == MODE_DEFLECTION:
                 K[o] = 0.0
                 K[o + 1] = 0.0
@@ -99,10 +102,10 @@ class _Run:
     force: np.ndarray
 
 
-def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
-                  f0=0.0) -> _Run:
-    """Run the rig for lowered coupler arrays (``_lowered_gear``); ``f0`` is the initial
-    internal force of a hysteretic gear, N."""
+def rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
+             f0=0.0) -> tuple:
+    """Arguments of :func:`_rig` for :func:`integrate_rig`; ``args[14:18]`` are the
+    output arrays (time s, deflection m, rate m/s, force N)."""
     tab = get_tableau(method)
     n_steps = int(round(t_end / dt))
     ny = 2 + N_GEAR_STATES
@@ -111,10 +114,18 @@ def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, 
     outs = [np.empty(n_steps + 1) for _ in range(4)]
     work = np.zeros(tab.stages * ny + 2 * ny)
     hints = np.zeros(3, dtype=np.int64)
-    _rig(mode, model, cpl, ctab, float(mass), np.ascontiguousarray(t_tab, dtype=float),
-         np.ascontiguousarray(a_tab, dtype=float), np.ascontiguousarray(b_tab, dtype=float),
-         dt, n_steps, tab.A, tab.b, tab.c, y, *outs, work, hints)
-    return _Run(*outs)
+    return (mode, model, cpl, ctab, float(mass), np.ascontiguousarray(t_tab, dtype=float),
+            np.ascontiguousarray(a_tab, dtype=float), np.ascontiguousarray(b_tab, dtype=float),
+            dt, n_steps, tab.A, tab.b, tab.c, y, *outs, work, hints)
+
+
+def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
+                  f0=0.0) -> _Run:
+    """Run the rig for lowered coupler arrays (``_lowered_gear``); ``f0`` is the initial
+    internal force of a hysteretic gear, N."""
+    args = rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method, f0)
+    _rig(*args)
+    return _Run(*args[14:18])
 
 
 def _run_rig(params, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method) -> _Run:

@@ -9,6 +9,19 @@ and with an S table the impact speed m/s; see
 sampled between steps and its output held over the step (zero-order hold), as a
 digital controller is; every continuous quantity is a pure function of ``(t, y)``, so
 any Runge-Kutta method can evaluate it any number of times per step.
+
+Compiling. The small helpers are inlined by numba into their callers
+(``inline="always"``). The large ones (:func:`rhs`, :func:`_gear`, :func:`_record`,
+:func:`_controller`, :func:`_brake_commands`) are compiled once each and inlined by
+LLVM instead (``forceinline=True``): numba's own inlining copies and types a function's
+whole body again at every call site, and with the right-hand side called from three
+places in :func:`run` and four in :func:`run_adaptive` their first compile took about
+140 s and 200 s of CPU (now about 17 s each, and the second shares most of the first).
+The compiled kernels hold no calls to these functions: the machine code does the same
+work as before. No argument of these functions may be a constant at a call site either:
+numba compiles a function once per set of argument types, and a constant such as ``0``
+or ``True`` is a type of its own (hence the stage slices ``K[s * ny:(s + 1) * ny]``
+rather than an offset ``0``).
 """
 
 from __future__ import annotations
@@ -187,13 +200,16 @@ def _interp(xs, ys, x, hints, slot):
     return ys[k] + w * (ys[k + 1] - ys[k])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     """Force (N, + tension) of hysteretic gear ``j``; writes its state rates to ``dy``.
 
     ``zo``/``dzo`` index the gear's states in ``y``/``dy``: internal force F1 (N); for a
     wedge gear also the plate displacement p (m); with an S table also the impact speed
     v0 (m/s).
+
+    Compiled once for the train kernels and the gear rig (:mod:`ltdsim.gear`), inlined
+    by LLVM (see the module's notes on compiling).
     """
     slack = cpl[j, P_SLACK]
     h = 0.5 * slack
@@ -342,11 +358,11 @@ def brake_target(t, delay, events, n_events):
     return 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
-        trac, drv, prof_t, prof_y, events, n_events, dy, off, force, defl, res, bforce, fcons,
-        sig, hints, peaks, track):
-    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy[off:off + len(y)]``.
+        trac, drv, prof_t, prof_y, events, n_events, dy, force, defl, res, bforce, fcons,
+        sig, hints):
+    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements).
 
     Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
     per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing forward
@@ -355,8 +371,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
     traction-curve limits N, total resistance N). ``hints`` holds search cursors
     (``[0, n)`` track, ``n`` driver profile, ``n + 1`` speed profile, ``n + 2 + c`` the
     own notch profile of consist c); they change only how fast a lookup is, never its
-    result. With ``track``, the coupler forces are also folded into ``peaks``
-    (see :func:`_fold_peak`).
+    result.
     """
     n = veh.shape[0]
     g = trac[T_G]
@@ -383,7 +398,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
             fill = y[zb]
             tau = drv[D_BTAUA] if target > fill else drv[D_BTAUR]
             # (settled within 1e-12: an endless decay to 0 ends in slow subnormals)
-            dy[off + zb] = (target - fill) / tau if abs(target - fill) > 1e-12 else 0.0
+            dy[zb] = (target - fill) / tau if abs(target - fill) > 1e-12 else 0.0
             fb = 0.0
             if fill > 0.0:
                 shoe = fill * veh[i, V_BSHOE]
@@ -420,7 +435,7 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
             rmax = cons[c, K_RATE]
             if rmax > 0.0:
                 rate = min(max(rate, -rmax), rmax)
-            dy[off + z] = rate
+            dy[z] = rate
             f = min(max(f, -lim), lim)
         else:
             f = dl
@@ -436,11 +451,9 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
-        f = coupler_force(j, cpl_model[j], d, dd, y, 2 * n, dy, off + 2 * n, cpl, ctab)
+        f = coupler_force(j, cpl_model[j], d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
         force[j] = f
         defl[j] = d
-        if track:
-            _fold_peak(peaks, j, f, t)
     for i in range(n):
         # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
         f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
@@ -448,8 +461,8 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
             f -= force[i]
         if i > 0:
             f += force[i - 1]
-        dy[off + i] = y[n + i]
-        dy[off + n + i] = f * inv_m[i]
+        dy[i] = y[n + i]
+        dy[n + i] = f * inv_m[i]
 
 
 @njit(cache=True, inline="always")
@@ -465,7 +478,7 @@ def _push_event(events, ctrl, t, level):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig, sampled):
     """Issue the brake commands due at the start of a step at ``t`` (s).
 
@@ -589,7 +602,7 @@ def _work_views(work, ns, ny, n, nc, nk, veh):
     return K, ytmp, ynew, force, defl, res, inv_m, bforce, fcons, sig
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _controller(t, y, n, ctrl, prof_t, prof_y, hints, trac, drv, sig):
     """One controller sample at ``t`` for a train of ``n`` vehicles: the PID's demanded
     acceleration, clipped to the acceleration limits. With anti-windup the integrator
@@ -656,8 +669,9 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
         n_ev = int(ctrl[C_NEV])
         # stage 1 is the right-hand side at (t_k, y_k): record it when due
         rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
-            trac, drv, prof_t, prof_y, events, n_ev, K, 0, force, defl, res, bforce, fcons,
-            sig, hints, peaks, True)
+            trac, drv, prof_t, prof_y, events, n_ev, K[0:ny], force, defl, res, bforce, fcons,
+            sig, hints)
+        _track_peaks(force, peaks, n - 1, t)
         if c_rec == 0:
             _record(k // record_every, t, y, K, force, defl, bforce, fcons, sig, a_dem,
                     ctrl[C_LEVEL], speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x,
@@ -672,8 +686,8 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
                     for q in range(ny):
                         ytmp[q] += w * K[o + q]
             rhs(t + C[s] * dt, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
-                tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, s * ny,
-                force, defl, res, bforce, fcons, sig, hints, peaks, False)
+                tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev,
+                K[s * ny:(s + 1) * ny], force, defl, res, bforce, fcons, sig, hints)
         # y += dt * sum_s b_s K_s, increment summed first for accuracy
         for q in range(ny):
             ytmp[q] = 0.0
@@ -697,8 +711,9 @@ def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
     if k_stop == n_steps:
         t = k_stop * dt
         rhs(t, y, ctrl[C_ADEM], veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
-            curve_h, trac, drv, prof_t, prof_y, events, int(ctrl[C_NEV]), K, 0, force, defl,
-            res, bforce, fcons, sig, hints, peaks, True)
+            curve_h, trac, drv, prof_t, prof_y, events, int(ctrl[C_NEV]), K[0:ny], force, defl,
+            res, bforce, fcons, sig, hints)
+        _track_peaks(force, peaks, n - 1, t)
         _record(k_stop // record_every, t, y, K, force, defl, bforce, fcons, sig, ctrl[C_ADEM],
                 ctrl[C_LEVEL],
                 speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x, out_v, out_a, out_d,
@@ -770,8 +785,9 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
         n_ev = int(ctrl[C_NEV])
         if fresh:
             rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
-                curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 0, force, defl, res,
-                bforce, fcons, sig, hints, peaks, True)
+                curve_h, trac, drv, prof_t, prof_y, events, n_ev, K[0:ny], force, defl, res,
+                bforce, fcons, sig, hints)
+            _track_peaks(force, peaks, n - 1, t)
             fresh = False
         # ---- record when on a record time
         if r < n_rec and abs(t - r * out_dt) <= eps:
@@ -798,13 +814,13 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
         for q in range(ny):
             ytmp[q] = y[q] + 0.5 * h_try * K[q]
         rhs(t + 0.5 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
-            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, ny, force,
-            defl, res, bforce, fcons, sig, hints, peaks, False)
+            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K[ny:2 * ny],
+            force, defl, res, bforce, fcons, sig, hints)
         for q in range(ny):
             ytmp[q] = y[q] + 0.75 * h_try * K[ny + q]
         rhs(t + 0.75 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
-            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 2 * ny, force,
-            defl, res, bforce, fcons, sig, hints, peaks, False)
+            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev,
+            K[2 * ny:3 * ny], force, defl, res, bforce, fcons, sig, hints)
         total = 0.0
         for q in range(ny):
             ynew[q] = y[q] + h_try * (_BS_B[0] * K[q] + _BS_B[1] * K[ny + q]
@@ -814,8 +830,8 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
         err = np.inf
         if total - total == 0.0:
             rhs(t_new, ynew, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade,
-                tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K, 3 * ny, force,
-                defl, res, bforce, fcons, sig, hints, peaks, False)
+                tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K[3 * ny:4 * ny],
+                force, defl, res, bforce, fcons, sig, hints)
             err = 0.0
             for q in range(ny):
                 e = h_try * (_BS_E[0] * K[q] + _BS_E[1] * K[ny + q] + _BS_E[2] * K[2 * ny + q]
@@ -859,7 +875,7 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
     return OK, t
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _record(r, t, y, dy, force, defl, bforce, fcons, sig, a_dem, level, speed_mode, prof_t,
             prof_y, hints, trac, veh, cons, out_x, out_v, out_a, out_d, out_f, out_s, out_b, out_p,
             out_c):

@@ -102,21 +102,20 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
     """
     low = lower(scenario)
     t0 = _time.perf_counter()
-    _integrate(low, scenario, progress, chunks, compile_only=True)
+    kern, args = zero_step_call(low)
+    kern(*args)  # compile, or load from numba's cache (see ltdsim.warmup)
     t1 = _time.perf_counter()
     rec = _integrate(low, scenario, progress, chunks)
     wall = _time.perf_counter() - t1
     return _dataset(scenario, low, rec, wall, compile_time=t1 - t0)
 
 
-def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=False):
-    """Run the kernel over the whole scenario (or, with ``compile_only``, over zero steps,
-    which only makes numba compile or load the kernel for these argument types)."""
+def _buffers(low: Lowered, n_rec: int):
+    """Records, state, controller state, work arrays and the kernels' common argument
+    tail for a run of ``low`` with ``n_rec`` records."""
     n = low.n
     nc = max(n - 1, 0)
     nk = low.cons.shape[0]
-    n_rec_total = low.n_steps // low.record_every + 1
-    n_rec = 1 if compile_only else n_rec_total
     nb = n if low.braked else 0
     rec = {
         "x": np.empty((n_rec, n)), "v": np.empty((n_rec, n)), "a": np.empty((n_rec, n)),
@@ -136,24 +135,44 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
               low.track_grade, low.track_curv, low.curve_h, low.trac, low.drv, low.prof_t,
               low.prof_y, rec["events"], rec["x"], rec["v"], rec["a"], rec["d"], rec["f"],
               rec["s"], rec["b"], rec["p"], rec["c"], rec["peaks"], work, hints)
+    # bs23 carry-over: step size, accepted and rejected steps, time, last error, rejected
+    astate = np.array([low.dt, 0.0, 0.0, 0.0, 1.0, 0.0])
+    return rec, y, ctrl, astate, common
+
+
+def zero_step_call(low: Lowered):
+    """``(kernel, args)``: the compiled kernel that runs ``low`` (fixed-step
+    :func:`ltdsim.kernel.run` or adaptive :func:`ltdsim.kernel.run_adaptive`) and the
+    arguments of a call that advances nothing. Calling it compiles the kernel for these
+    argument types, or loads it from numba's cache."""
+    _, y, ctrl, astate, common = _buffers(low, 1)
+    if low.adaptive:
+        return kernel.run_adaptive, (y, ctrl, astate, 0, 0, 1, low.record_every * low.dt,
+                                     low.max_step, low.atol, low.rtol, *common)
+    return kernel.run, (y, ctrl, 0, 0, low.n_steps, low.record_every, low.dt, low.tableau.A,
+                        low.tableau.b, low.tableau.c, *common)
+
+
+def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
+    """Run the kernel over the whole scenario."""
+    n_rec_total = low.n_steps // low.record_every + 1
+    rec, y, ctrl, astate, common = _buffers(low, n_rec_total)
     out_dt = low.record_every * low.dt
     t_end = low.n_steps * low.dt
     per_rec = max(1, (n_rec_total - 1) // max(chunks, 1))
-    # bs23 carry-over: step size, accepted and rejected steps, time, last error, rejected
-    astate = np.array([low.dt, 0.0, 0.0, 0.0, 1.0, 0.0])
     r = 0
     k = 0
     while True:
         if low.adaptive:
-            r_stop = 0 if compile_only else min(r + per_rec, n_rec_total)
+            r_stop = min(r + per_rec, n_rec_total)
             status, t_at = kernel.run_adaptive(
-                y, ctrl, astate, r, r_stop, n_rec, out_dt, low.max_step, low.atol, low.rtol,
-                *common)
+                y, ctrl, astate, r, r_stop, n_rec_total, out_dt, low.max_step, low.atol,
+                low.rtol, *common)
             r = r_stop
             done = r >= n_rec_total
             t_done = min(r, n_rec_total - 1) * out_dt
         else:
-            k_stop = 0 if compile_only else min(k + per_rec * low.record_every, low.n_steps)
+            k_stop = min(k + per_rec * low.record_every, low.n_steps)
             status, k_end = kernel.run(
                 y, ctrl, k, k_stop, low.n_steps, low.record_every, low.dt, low.tableau.A,
                 low.tableau.b, low.tableau.c, *common)
@@ -161,8 +180,6 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks, compile_only=
             k = k_stop
             done = k >= low.n_steps
             t_done = k * low.dt
-        if compile_only:
-            return rec
         if status == kernel.EVENTS_FULL:
             raise SimulationError(
                 f"more than {MAX_EVENTS} brake commands by t = {t_at:.6g} s; raise "

@@ -139,39 +139,58 @@ def _check_output(out: Path, settings: dict, force: bool) -> None:
                                               "with --force")])
 
 
+SWEEP_EXTRAS = ("sysid", "spectra")
+#: the friction gears the simplified coupler is fitted to (Table 1's low and high sets)
+REDUCTION_PRESETS = {"low": "friction-wedge-low", "high": "friction-wedge-high"}
+
+
 # ------------------------------------------------------------------------- stages
+def _reduction_key(maxiter):
+    return _key("reduction", maxiter, {k: CouplerParams(preset=v).model_dump()
+                                       for k, v in REDUCTION_PRESETS.items()})
+
+
 def _stage_reduction(out, cache, maxiter, workers):
     from ltdsim.plotting import save_reduction
     from ltdsim.reduce import reduce_gear
 
     files = [out / "fig3_reduction_low.png", out / "fig3_reduction_high.png"]
-    presets = {"low": "friction-wedge-low", "high": "friction-wedge-high"}
-    key = _key("reduction", maxiter, {k: CouplerParams(preset=v).model_dump()
-                                      for k, v in presets.items()})
+    key = _reduction_key(maxiter)
     hit = cache.get("reduction", key)
     if hit is not None:
         return hit
     rows = {}
-    for (level, preset), fig in zip(presets.items(), files):
+    for (level, preset), fig in zip(REDUCTION_PRESETS.items(), files):
         r = reduce_gear(CouplerParams(preset=preset), workers=workers, maxiter=maxiter)
         save_reduction(r, fig, title=f"Fig. 3 ({level} set): friction gear vs fitted simplified")
         rows[level] = {**r.parameters, "fit_percent": r.fit_percent, "evaluations": r.evaluations}
     return cache.put("reduction", key, rows, files)
 
 
-def _stage_sweep(out, scenario_path, overrides, workers, progress):
-    # (no stage cache: the sweep keeps every finished case itself, by fingerprint)
+def _sweep_spec(scenario_path, overrides):
     from ltdsim import sweep as sw
 
     spec = sw.load_sweep(scenario_path)
-    spec = sw.with_overrides(spec, overrides or {})
-    sw.run_sweep(spec, out / "sweep", workers=workers, extras=("sysid", "spectra"),
-                 progress=lambda d, n, c: progress("sweep", f"{d}/{n} cases"))
+    # the overrides apply after each case's own keys
+    return sw.with_overrides(spec, overrides or {})
+
+
+def _stage_sweep(out, spec, workers, progress, on_compile):
+    # (no stage cache: the sweep keeps every finished case itself, by fingerprint)
+    from ltdsim import sweep as sw
+
+    sw.run_sweep(spec, out / "sweep", workers=workers, extras=SWEEP_EXTRAS,
+                 progress=lambda d, n, c: progress("sweep", f"{d}/{n} cases"),
+                 on_compile=on_compile)
     records = {}
     for case in spec.cases:
         p = sw.case_path(out / "sweep", case.id)
         records[case.id] = json.loads(p.read_text()) if p.is_file() else {"status": "not run"}
     return records
+
+
+def _base_key(scenario: Scenario) -> str:
+    return _key("base", scenario.to_dict())
 
 
 def _stage_base(out, cache, scenario: Scenario):
@@ -185,7 +204,7 @@ def _stage_base(out, cache, scenario: Scenario):
     figs = [out / "fig4_speed_tracking.png", out / "fig5_relative_motion.png",
             out / "fig6_forces.png", out / "fig7_traction_curve.png",
             out / "spectra_per_phase.png", out / "spectrogram.png"]
-    key = _key("base", scenario.to_dict())
+    key = _base_key(scenario)
     hit = cache.get("base", key)
     if hit is not None:
         return hit
@@ -300,16 +319,39 @@ def _stage_modal(out, cache, scenario: Scenario):
 
 
 # ------------------------------------------------------------------------- driver
+def _warm_up(out, cache, spec, base_case, reduction, reduction_maxiter, on_compile):
+    """Compile (first run only) or load every kernel the stages that are not cached
+    yet need, once, before the reduction's and the sweep's worker processes start."""
+    from ltdsim import sweep as sw
+    from ltdsim.warmup import gear_rig_kernel, scenario_kernels, warm_up
+
+    calls = []
+    if reduction and cache.get("reduction", _reduction_key(reduction_maxiter)) is None:
+        calls.append(gear_rig_kernel())
+    done = sw.finished(out / "sweep", spec, extras=SWEEP_EXTRAS)
+    runs = [spec.scenario(c) for c in spec.cases if c.id not in done]
+    if cache.get("base", _base_key(base_case)) is None:
+        runs.append(base_case)
+    kinds = {sc.solver.adaptive: sc for sc in runs}  # (one kernel per kind, see warmup)
+    calls += scenario_kernels(kinds.values())
+    return warm_up(calls, on_compile)
+
+
 def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: str = STUDY_CASE,
               overrides: dict | None = None, reduction: bool = True,
               reduction_maxiter: int = STUDY_REDUCTION_MAXITER, workers: int | None = None,
-              progress: Progress | None = None, force: bool = False) -> Path:
+              progress: Progress | None = None, force: bool = False,
+              on_compile: Callable[[float, bool], None] | None = None) -> Path:
     """Run every stage and write ``<out>/index.html``; returns its path.
 
-    ``overrides`` (dotted keys) apply to every case (e.g. a shorter ``solver.t_end`` for
-    a quick look); ``case`` is the base case for phases, spectra and modes. A folder that
-    holds a report made with other settings is refused (``ScenarioError`` naming
-    ``--output``) unless ``force``; the check comes before any work.
+    ``overrides`` (dotted keys) apply to every case after its own keys (e.g. a shorter
+    ``solver.t_end`` for a quick look); ``case`` is the base case for phases, spectra and
+    modes. A folder that holds a report made with other settings is refused
+    (``ScenarioError`` naming ``--output``) unless ``force``; the check comes before any
+    work. ``progress(stage, message)`` reports the stages; ``on_compile(elapsed_s,
+    done)`` the compile of the kernels on a first run (see
+    :func:`ltdsim.warmup.warm_up`; without it the compile is reported as the stage
+    "compiling").
     """
     out = Path(out)
     scenario_path = Path(scenario_path)
@@ -330,13 +372,18 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
         tmp.write_text(json.dumps(settings, indent=1))
     cache = _Cache(out)
     say = progress or (lambda stage, msg: None)
+    spec = _sweep_spec(scenario_path, overrides)
+    if on_compile is None:
+        def on_compile(elapsed, done):
+            say("compiling", f"first run only: {elapsed:.0f} s" + (", done" if done else ""))
+    _warm_up(out, cache, spec, base_case, reduction, reduction_maxiter, on_compile)
     results = {"settings": settings,
                "deviations": deviations(settings, load_scenario(scenario_path))}
     if reduction:
         say("reduction", "fitting the simplified coupler to the friction gears")
         results["reduction"] = _stage_reduction(out, cache, reduction_maxiter, workers or -1)
     say("sweep", "running the cases")
-    results["sweep"] = _stage_sweep(out, scenario_path, overrides, workers, say)
+    results["sweep"] = _stage_sweep(out, spec, workers, say, on_compile)
     say("base", f"base case {case}: phases, spectra")
     results["base"] = _stage_base(out, cache, base_case)
     say("modal", "natural frequencies")

@@ -302,7 +302,8 @@ def finished(out: Path, sweep: Sweep, retry_failed: bool = False, extras=()) -> 
 def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
               workers: int | None = None, keep_results: bool = False,
               retry_failed: bool = False, extras: tuple[str, ...] = (),
-              progress: Callable[[int, int, str], None] | None = None) -> pd.DataFrame:
+              progress: Callable[[int, int, str], None] | None = None,
+              on_compile: Callable[[float, bool], None] | None = None) -> pd.DataFrame:
     """Run the unfinished cases of ``sweep`` into folder ``out``; return the summary.
 
     Parameters
@@ -320,6 +321,13 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
         fingerprint, so asking for more reruns the cases.
     progress : callable, optional
         ``progress(done, total, case_id)`` after each finished case.
+    on_compile : callable, optional
+        ``on_compile(elapsed_s, done)`` while the kernels are compiled (first run only;
+        see :func:`ltdsim.warmup.warm_up`).
+
+    On local processes the kernels the cases need are compiled (or loaded) here before
+    the workers start, so that each worker loads them from numba's cache instead of
+    compiling the same kernel at the same time.
     """
     out = Path(out)
     (out / "cases").mkdir(parents=True, exist_ok=True)
@@ -327,6 +335,8 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
     todo = [c for c in sweep.cases if c.id not in skip]
     total = len(sweep.cases)
     done = len(skip)
+    if todo and not scheduler:
+        warm_cases(sweep, todo, on_compile)
     if progress is not None:
         progress(done, total, "")
     if todo:
@@ -352,6 +362,24 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
         finally:
             close()
     return summary_table(out, sweep)
+
+
+def warm_cases(sweep: Sweep, cases: list[Case], on_compile=None) -> float:
+    """Compile (or load) the kernels ``cases`` need; returns the seconds spent compiling.
+
+    The kernel and its argument types depend on the solver (fixed-step or adaptive),
+    not on the values, so one case of each kind stands for all."""
+    from ltdsim.warmup import scenario_kernels, warm_up
+
+    kinds = {}
+    for case in cases:
+        sc = sweep.scenario(case)
+        kinds.setdefault(sc.solver.adaptive, sc)
+    try:
+        calls = scenario_kernels(kinds.values())
+    except LtdsimError:  # the case fails in its worker, with its own record
+        return 0.0
+    return warm_up(calls, on_compile)
 
 
 def _executor(scheduler, workers):

@@ -1,7 +1,10 @@
 """Force laws of longitudinal train dynamics as pure functions.
 
 Every law is a numba ufunc: called from Python it broadcasts over numpy arrays, called
-from the compiled kernel it is inlined for scalars. All quantities are SI (m, s, kg, N, W).
+from the compiled kernel it is inlined for scalars. The laws the kernels never call
+(``davis_resistance``: the kernels use its scalar form; the wedge gear's quasi-static
+curves; the exponential checks) are compiled at their first call rather than at import
+(see :mod:`ltdsim.physics._lazy`). All quantities are SI (m, s, kg, N, W).
 """
 
 from ltdsim.physics.brakes import brake_retardation, karwatzki

@@ -26,7 +26,9 @@ NumPy's ``exp``.
 
 from __future__ import annotations
 
-from numba import njit, vectorize
+from numba import njit
+
+from ltdsim.physics._lazy import vectorize_when_used
 
 #: below this argument the series is used, -
 SERIES_LIMIT = 0.125
@@ -93,13 +95,13 @@ def exp_neg_small(z):
     return _wide(z)
 
 
-@vectorize(["float64(float64)"], cache=True)
+@vectorize_when_used(["float64(float64)"], cache=True)
 def exp_neg_ufunc(z):
     """:func:`exp_neg` over arrays (for checks and plots), -."""
     return exp_neg(z)
 
 
-@vectorize(["float64(float64)"], cache=True)
+@vectorize_when_used(["float64(float64)"], cache=True)
 def exp_neg_small_ufunc(z):
     """:func:`exp_neg_small` over arrays (for checks), -."""
     return exp_neg_small(z)

@@ -41,8 +41,9 @@ from __future__ import annotations
 
 import math
 
-from numba import njit, vectorize
+from numba import njit
 
+from ltdsim.physics._lazy import vectorize_when_used
 from ltdsim.physics.decay import exp_neg_small
 
 
@@ -258,9 +259,9 @@ def table_curve(tab, off, n, x):
     return f[k] * (1.0 - w) + f[k + 1] * w, slope
 
 
-@vectorize(["float64(float64, float64, float64, float64, float64, float64, float64, float64,"
-            " float64, float64, float64, float64, float64, float64, float64, float64)"],
-           cache=True)
+@vectorize_when_used(["float64(float64, float64, float64, float64, float64, float64, float64,"
+                      " float64, float64, float64, float64, float64, float64, float64, float64,"
+                      " float64)"], cache=True)
 def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor, k_m, x_m0, k_r,
                            x_r0, x_gap, delta, plates):
     """Quasi-static force of the wedge gear (paper Eq. 1 at zero speed), N.

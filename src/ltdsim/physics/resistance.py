@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from numba import njit, vectorize
 
+from ltdsim.physics._lazy import vectorize_when_used
+
 #: inverse standstill speed (s/m) that gives the pure sign: every speed counted as
 #: moving (>= 1e-12 m/s) reaches the full constant term; finite, so that a speed of 0
 #: times it is 0, not NaN, even where the product is computed ahead of the test
@@ -32,7 +34,7 @@ def davis_force(v, a, b, c, inv_v0):
     return f
 
 
-@vectorize(_F8_5, cache=True)
+@vectorize_when_used(_F8_5, cache=True)
 def davis_resistance(v, a, b, c, v0):
     """Propulsion (rolling plus aerodynamic) resistance by the Davis formula, N.
 

@@ -1,0 +1,160 @@
+"""Progress of long work on stderr: a live display on a terminal, timestamped lines in a log.
+
+rich's live progress redraws one block of the terminal; written to a file or a pipe it
+prints nothing until the end. When the console is not a terminal, :class:`Display`
+prints plain lines instead: one when a stage starts or ends, and one at most every
+``interval`` seconds while it runs ("12:03:41 sweep: 5/16 cases, 12 s").
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+from rich.console import Console
+from rich.markup import escape
+from rich.progress import (BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn,
+                           TimeRemainingColumn)
+from rich.text import Text
+
+#: what the compile line says (the kernels are kept in numba's cache afterwards)
+COMPILING = "compiling (first run only)"
+
+
+class _Remaining(TimeRemainingColumn):
+    """Time remaining, blank for tasks without a known total (compile, stages)."""
+
+    def render(self, task):
+        return Text("") if task.total is None or task.finished else super().render(task)
+
+
+class Display:
+    """Progress of a command on ``console`` (stderr).
+
+    Use as a context manager; feed it from the library's callbacks:
+
+    * :meth:`compiling` is a :func:`ltdsim.warmup.warm_up` tick;
+    * :meth:`bar` starts a counted task (simulated seconds, cases) and returns its
+      ``update(done)`` callback;
+    * :meth:`stage` reports a stage and a message (``ltdsim study``).
+
+    Nothing is shown when ``quiet``.
+    """
+
+    def __init__(self, console: Console, *, quiet: bool = False, interval: float = 10.0):
+        self.console = console
+        self.quiet = quiet
+        self.interval = interval
+        self.live = console.is_terminal and not quiet
+        self._lock = threading.Lock()
+        self._progress = None
+        self._compile_task: TaskID | None = None
+        self._stage_task: TaskID | None = None
+        self._stage = None
+        self._stage_t0 = 0.0
+        self._pending = None  # the stage's latest message, when not yet in the log
+        self._last_line = {}  # key -> time of its last log line
+
+    # ------------------------------------------------------------------ plumbing
+    def __enter__(self) -> Display:
+        if self.live:
+            self._progress = Progress(
+                TextColumn("[bold]{task.description}"), BarColumn(bar_width=20),
+                TextColumn("{task.fields[info]}"), TimeElapsedColumn(), _Remaining(),
+                console=self.console, transient=False)
+            self._progress.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._progress is not None:
+            self._progress.__exit__(*exc)
+
+    def log(self, text: str) -> None:
+        """One timestamped line (log mode only)."""
+        if self.quiet or self.live:
+            return
+        with self._lock:
+            self.console.print(f"{time.strftime('%H:%M:%S')} {text}", markup=False,
+                               highlight=False, soft_wrap=True)
+
+    def _due(self, key: str, force: bool = False) -> bool:
+        now = time.monotonic()
+        last = self._last_line.get(key)
+        if force or last is None or now - last >= self.interval:
+            self._last_line[key] = now
+            return True
+        return False
+
+    # ------------------------------------------------------------------ callbacks
+    def compiling(self, elapsed: float, done: bool) -> None:
+        """Tick of :func:`ltdsim.warmup.warm_up`: a compile started, runs or ended."""
+        if self.live:
+            prog = self._progress
+            if self._compile_task is None:
+                self._compile_task = prog.add_task(COMPILING, total=None, info="")
+            if done:
+                prog.update(self._compile_task, total=1, completed=1, info="done")
+            return
+        if done:
+            self.log(f"compiled in {elapsed:.0f} s (kept in the cache for later runs)")
+        elif elapsed == 0.0:
+            self._due("compile", force=True)
+            self.log(f"{COMPILING}: the kernels are compiled once and kept for later runs")
+        elif self._due("compile"):
+            self.log(f"{COMPILING}: {elapsed:.0f} s")
+
+    def bar(self, description: str, total: float, unit: str,
+            fmt: str = "{:.0f}") -> Callable[[float], None]:
+        """A counted task ("s simulated", "cases" as ``unit``); returns ``update(done)``.
+        The task appears at its first update."""
+        t0 = None
+        task = None
+
+        def info(done):
+            return f"{fmt.format(done)}/{fmt.format(total)} {unit}"
+
+        def update(done: float) -> None:
+            nonlocal t0, task
+            first = t0 is None
+            if first:
+                t0 = time.monotonic()
+            if self.live:
+                if first:
+                    task = self._progress.add_task(escape(description), total=total,
+                                                   info=info(done))
+                self._progress.update(task, completed=done, info=info(done))
+                return
+            if self._due(description, force=first or done >= total):
+                took = "" if first else f", {time.monotonic() - t0:.0f} s"
+                self.log(f"{description}: {info(done)}{took}")
+        return update
+
+    def stage(self, stage: str, msg: str) -> None:
+        """A stage of a longer job and what it is doing. In a log a new stage is always
+        written; messages within a stage at most every ``interval`` s, and the stage's
+        last message before the next stage starts."""
+        new = stage != self._stage
+        if new:
+            self._stage, self._stage_t0 = stage, time.monotonic()
+        if self.live:
+            if self._stage_task is None:
+                self._stage_task = self._progress.add_task(stage, total=None, info="")
+            self._progress.update(self._stage_task, description=escape(stage),
+                                  info=escape(msg))
+            return
+        if new and self._pending is not None:  # a stage's last word before the next one
+            self.log(self._pending)
+        took = time.monotonic() - self._stage_t0
+        text = f"{stage}: {msg}" + ("" if new else f", {took:.0f} s")
+        if self._due("stage", force=new):
+            self.log(text)
+            self._pending = None
+        else:
+            self._pending = text
+
+    def done(self, msg: str) -> None:
+        """The job finished: the stage line says so (in a log: "done: <msg>")."""
+        self.stage("done", msg)
+        if self.live and self._stage_task is not None:
+            self._progress.update(self._stage_task, total=1, completed=1)
