@@ -124,6 +124,20 @@ def test_the_comparison_with_the_study_comes_first_and_a_short_run_says_it_is_on
     assert {r[3] for r in rows} == {"not comparable"}
 
 
+def test_table_4_states_why_an_overshoot_exceeds_100_percent(report):
+    """Overshoots within [0, 100] %, or the page says why they are not (the study's
+    couplers are nearly undamped; the force-step experiment is checked against a closed
+    form in test_step_response.py)."""
+    _, out, index = report
+    page = index.read_text()
+    t4 = pd.read_csv(out / "table4_step_response.csv")
+    over = pd.concat([t4["model overshoot [%]"], t4["train overshoot [%]"]]).astype(float)
+    assert (over >= 0).all()
+    if (over > 100).any():
+        assert "Why the overshoots exceed 100 %" in page and "damping ratio" in page
+    assert (t4["model peak [-]"].astype(float).abs() > 0.05).all()  # no peak near 0
+
+
 def test_every_numeric_column_has_a_unit_and_couplers_count_from_1(report):
     _, out, index = report
     page = index.read_text()

@@ -118,16 +118,17 @@ def _label(sc) -> str:
 
 
 def _simulate(sc, quiet: bool = False):
-    """Simulate ``sc`` with a progress bar of simulated seconds on stderr."""
+    """Simulate ``sc``: compile or load its kernel first ("compiling (first run only)"),
+    then a progress bar of simulated seconds on stderr (plain lines in a log)."""
     from ltdsim.simulate import simulate
+    from ltdsim.warmup import scenario_kernels, warm_up
 
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                  TextColumn("{task.completed:.1f}/{task.total:.1f} s simulated"),
-                  TimeElapsedColumn(), TimeRemainingColumn(), console=err_console,
-                  disable=quiet, transient=False) as prog:
-        task = prog.add_task(escape(f"simulating {_label(sc)}"),
-                             total=sc.solver.n_steps * sc.solver.dt)
-        return simulate(sc, progress=lambda done, total: prog.update(task, completed=done))
+    with Display(err_console, quiet=quiet) as show:
+        warm_up(scenario_kernels([sc]), show.compiling)
+        update = show.bar(f"simulating {_label(sc)}", sc.solver.n_steps * sc.solver.dt,
+                          "s simulated", "{:.1f}")
+        update(0.0)
+        return simulate(sc, progress=lambda done, total: update(done))
 
 
 def _fail(exc: LtdsimError) -> None:
@@ -231,9 +232,7 @@ def run(
     """Simulate one scenario (optionally one named case) and summarise coupler forces."""
     from ltdsim.io import save_result
     from ltdsim.scenario import load_scenario
-    from ltdsim.simulate import simulate
     from ltdsim.summary import coupler_summary, critical_rows, run_summary, travel_warning
-    from ltdsim.warmup import scenario_kernels, warm_up
 
     try:
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
@@ -243,12 +242,7 @@ def run(
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
         label = _label(sc)  # plain text: _table keeps it so
-        with Display(err_console, quiet=quiet) as show:
-            warm_up(scenario_kernels([sc]), show.compiling)
-            update = show.bar(f"simulating {label}", sc.solver.n_steps * sc.solver.dt,
-                              "s simulated", "{:.1f}")
-            update(0.0)
-            ds = simulate(sc, progress=lambda done, total: update(done))
+        ds = _simulate(sc, quiet)
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return

@@ -332,10 +332,15 @@ class _Report:
                 method="min").astype(int)
         self.parts += [table_html(t2), _csv(t2, self.out, "table2_speed_error.csv")]
         best = str(t2.loc[ours.idxmin(), "case"])
+        study_best = min(t2s, key=lambda c: t2s[c]["rms_speed_error_m_s"])
+        ranked = t2.loc[t2.case == study_best, "ltdsim rank [-]"]
+        relation = ("as in the study" if best == study_best else
+                    f"the study's best, {study_best}, ranks {int(ranked.iloc[0])} here"
+                    if len(ranked) else f"the study's best, {study_best}, was not run")
         self.take.append(f"Best speed tracking: case <b>{best}</b> (RMS speed error "
                          f"{ours.min():.3f} m/s" + (f"; the {len(t2)} cases span "
-                                                   f"{_span(ours, '.3f')} m/s)." if len(t2) > 1
-                                                   else ")."))
+                                                   f"{_span(ours, '.3f')} m/s" if len(t2) > 1
+                                                   else "") + f"; {relation}).")
         if len(both) >= 2:
             rho = _spearman(both["study RMS speed error [m/s]"],
                             both["ltdsim RMS speed error [m/s]"])
@@ -353,8 +358,6 @@ class _Report:
                 "(+1: the same order, 0: unrelated, −1: reversed).</p>" if math.isfinite(rho)
                 else "", table_html(order), _csv(order, self.out, "table2_ranking.csv")]
             # the study's claim is about its whole Table 2
-            study_best = min(t2s, key=lambda c: t2s[c]["rms_speed_error_m_s"])
-            ranked = t2.loc[t2.case == study_best, "ltdsim rank [-]"]
             where = (f"{study_best} ranks {int(ranked.iloc[0])} of {len(t2)}" if len(ranked)
                      else f"{study_best} not run")
             self.claim(f"Best speed tracking: {study_best} has the lowest RMS speed error "
@@ -631,13 +634,16 @@ class _Report:
             "what tires it). The study reads both from its Table 5.</p>",
             table_html(tc), _csv(tc, self.out, "critical_couplers.csv")]
         ours = sorted(set(peak.values()) | set(rms.values()))
+        study_set = sorted(set(tc["study, by peak [coupler]"].dropna().astype(int))
+                           | set(tc["study, by RMS [coupler]"].dropna().astype(int)))
         self.take.append("Critical couplers (largest force in a phase, by peak or by RMS): "
                          f"<b>{_cases_text(ours)}</b>; by peak " + ", ".join(
                              f"{ph} {c}" for ph, c in peak.items()) + "; by RMS " + ", ".join(
-                             f"{ph} {c}" for ph, c in rms.items()) + ".")
+                             f"{ph} {c}" for ph, c in rms.items())
+                         + (f" (the study: {_cases_text(study_set)}; "
+                            + self._mass_behind(sorted(set(ours) | set(study_set))) + ")."
+                            if study_set else "."))
         if total:
-            study_set = sorted(set(tc["study, by peak [coupler]"].dropna().astype(int))
-                               | set(tc["study, by RMS [coupler]"].dropna().astype(int)))
             self.claim("Couplers 1, 8 and 9 are critical (§5.1, Table 5)",
                        f"{_cases_text(study_set)} (largest by peak or RMS in a phase)",
                        f"{_cases_text(ours)}",
@@ -725,7 +731,8 @@ class _Report:
         over = int(whole["samples with demand above adhesion [-]"])
         self.take.append(f"Traction stayed at or below {ratio:.0%} of the adhesion limit; "
                          f"the demand exceeded the limit in {over} samples (wheel-slip "
-                         "risk).")
+                         "risk)" + ("; the study too finds traction under adhesion throughout."
+                                    if ratio <= 1.0 + 1e-9 else "."))
         self.claim("Traction stays under the adhesion curve in every phase (§5.1, Fig. 7)",
                    "never above", f"at most {ratio:.0%} of the limit",
                    "yes" if ratio <= 1.0 + 1e-9 else "no",
@@ -772,7 +779,7 @@ class _Report:
                 hi["coupling_stiffness_N_m"] < lo["coupling_stiffness_N_m"]:
             note += (f" In case {html.escape(self.case)} k2 + k3 is below k1, so the "
                      "\"high\" stiffness gives the lower frequencies.")
-        self.parts += [f"<h2 id='fig8'>Fig. 8: natural frequencies and mode shapes</h2>",
+        self.parts += ["<h2 id='fig8'>Fig. 8: natural frequencies and mode shapes</h2>",
                        note + "</p>", table_html(tm), _csv(tm, self.out, "modal_bands.csv")]
         self.parts += [figure_html(p, f"Fig. 8: mode shapes, {p.stem.split('_')[-1]} "
                                       f"stiffness, case {self.case}") for p in
@@ -783,7 +790,8 @@ class _Report:
         self.take.append(f"Frequency band to keep clear: {allf.min():.2f}-{allf.max():.2f} "
                          f"Hz in case {html.escape(self.case)} (the train's longitudinal "
                          "modes; excitation there, e.g. from traction control, rings the "
-                         "couplers).")
+                         f"couplers); the study gives {study['low'][0]}-{study['high'][1]} Hz "
+                         "over its low and high stiffness.")
         for which in ("low", "high"):
             w = modal.get(f"widest_{which}")
             if not w:
@@ -849,7 +857,7 @@ class _Report:
             self.take.append(f"At least {low:.0%} of the coupler forces' fluctuation up to "
                              "10 Hz lies below 4 Hz (couplers " + _cases_text(
                                  sorted({int(c) + 1 for ph in share.values() for c in ph}))
-                             + ", every phase).")
+                             + ", every phase), as the study finds (0-4 Hz).")
             self.claim("The coupler forces' spectral content lies within 0-4 Hz (§5.2)",
                        "0-4 Hz", f"at least {low:.0%} of the 0-10 Hz content below 4 Hz",
                        "yes" if low >= 0.9 else "partly",
@@ -862,7 +870,10 @@ class _Report:
                        f"{r['study max [kN]']:.1f} kN", f"{r['ltdsim largest line [kN]']:.1f} kN",
                        "no", f"{r['max ratio ltdsim / study [-]']:.0f} times the study's: the "
                        "spectra scale with the forces, which differ as in Table 5 (and the "
-                       "study does not state its amplitude scaling)")
+                       "study does not state its amplitude scaling)"
+                       + (f"; ltdsim's largest line, at {r['at [Hz]']:.1f} Hz, is the force's "
+                          "rise over the window as the train picks up speed"
+                          if r["at [Hz]"] <= 0.15 else ""))
 
     # -------------------------------------------------------------- the page
     def page(self, scenario_path: Path) -> str:

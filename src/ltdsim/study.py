@@ -253,8 +253,9 @@ def _diagnosis(ds, scenario: Scenario, figure: Path) -> dict | None:
     if scenario.driver.mode != "speed":
         return None
     try:
+        now = base_run_diagnostics(ds, scenario)
         earlier_sc = scenario.with_overrides(PAPER_EARLIER_READING, source="earlier reading")
-    except LtdsimError:
+    except (LtdsimError, ValueError):  # no cruise to judge (a short run), or not the study's
         return None
     earlier = simulate(earlier_sc)
     hunt_figure({"this run": ds, "earlier reading": earlier}, figure)
@@ -270,7 +271,6 @@ def _diagnosis(ds, scenario: Scenario, figure: Path) -> dict | None:
     def coupler1_peak(result):
         return float(abs(result.coupler_force.sel(time=slice(*window)).values[:, 0]).max())
 
-    now = base_run_diagnostics(ds, scenario)
     # a swing is a ring of the train's modes: slower changes (grades, curves) are not one
     f_min = 0.5 * now["held_mode_hz"] if np.isfinite(now["held_mode_hz"]) else None
     return {"now": _jsonable(base_run_diagnostics(ds, scenario, f_min=f_min)),
