@@ -154,3 +154,113 @@ def test_impossible_gear_ratings_are_named(args, key):
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr + proc.stdout
     assert key in proc.stderr
+
+
+# -- issue 13: reading and types
+# Bad files and values of the wrong TOML type are refused in one line naming the file and
+# the key, exit code 2, no traceback.
+from typer.testing import CliRunner  # noqa: E402
+
+from ltdsim.cli import app  # noqa: E402
+
+RUNNER = CliRunner()
+SHORT = ROOT / "scenarios" / "short-train.toml"
+
+
+def refused(*args, code=2) -> str:
+    """Run the CLI in-process; assert it refused cleanly (exit code, one error line, no
+    traceback) and return the error text."""
+    res = RUNNER.invoke(app, [str(a) for a in args])
+    text = res.stdout + res.stderr
+    assert res.exit_code == code, text
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    assert "Traceback" not in text
+    errors = [line for line in res.stderr.splitlines() if line.startswith("error")]
+    assert len(errors) == 1, res.stderr
+    return " ".join(res.stderr.split())  # (rich may wrap a long line)
+
+
+@pytest.mark.parametrize("name, content, words", [
+    ("string.toml", b'name = "caf\xe9"\n', "byte 0xe9 at line 1, column 12"),
+    ("comment.toml", b"# \xff comment\n" + EXAMPLE.encode(), "byte 0xff at line 1, column 3"),
+    ("binary.toml", bytes(range(256)) * 4, "binary file"),
+])
+def test_a_file_that_is_not_utf8_text_is_named_with_the_place(tmp_path, name, content, words):
+    p = tmp_path / name
+    p.write_bytes(content)
+    msg = refused("run", p, "-q")
+    assert name in msg and words in msg and "UTF-8" in msg
+
+
+def test_a_folder_a_missing_file_and_an_unreadable_file_are_named(tmp_path, monkeypatch):
+    (tmp_path / "x.toml").mkdir()
+    msg = refused("run", tmp_path / "x.toml", "-q")
+    assert "x.toml" in msg and "is a folder" in msg
+    msg = refused("sweep", tmp_path / "x.toml", "-o", tmp_path / "out")
+    assert "x.toml" in msg and "is a folder" in msg
+    msg = refused("run", tmp_path / "gone.toml", "-q")
+    assert "gone.toml" in msg and "file not found" in msg
+    # permission denied (the tests may run as root, who reads any file: simulate it)
+    p = tmp_path / "locked.toml"
+    p.write_text(EXAMPLE)
+
+    def denied(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "read_bytes", denied)
+    msg = refused("run", p, "-q")
+    assert "locked.toml" in msg and "permission denied" in msg
+
+
+@pytest.mark.parametrize("old, new, key, kind", [
+    ("mass = 90000.0", "mass = true", "vehicles.1.mass", "must be a number"),
+    ("powered = true", 'powered = "yes"', "vehicles.0.powered", "must be true or false"),
+    ("powered = true", "powered = 1", "vehicles.0.powered", "must be true or false"),
+    ("dt = 1e-4", 'dt = "1e-4"', "solver.dt", "must be a number"),
+    ("count = 4", "count = true", "vehicles.1.count", "must be a whole number"),
+    ("count = 4", "count = 4.0", "vehicles.1.count", "must be a whole number"),
+    ('name = "wagon"', "name = 7", "vehicles.1.name", "must be a string"),
+    ("k1 = 8.265776e6", 'k1 = "8.265776e6"', "couplers.default.k1", "must be a number"),
+    ("index = 3", "index = true", "couplers.override.0.index", "must be a whole number"),
+    ("[300.0, 0.005]", "[300.0, true]", "track.gradient.1.1", "must be a number"),
+    ("ts = 1e-4", "ts = false", "driver.pid.ts", "must be a number"),
+])
+def test_a_value_of_the_wrong_toml_type_is_refused_naming_its_key(tmp_path, old, new, key, kind):
+    assert old in EXAMPLE
+    msg = refused("run", write(tmp_path, EXAMPLE.replace(old, new, 1)), "-q")
+    assert f"bad.toml: {key}: {kind}" in msg, msg
+    assert msg.count("bad.toml") == 1  # the key itself, not a knock-on error elsewhere
+
+
+def test_an_integer_is_a_number_and_the_scenario_runs_the_same(tmp_path):
+    # a TOML integer where a float is expected is a number too (mass = 90000)
+    a = ltdsim.load_scenario(write(tmp_path, EXAMPLE.replace("mass = 90000.0", "mass = 90000")))
+    assert a.vehicles[1].mass == 90000.0 and isinstance(a.vehicles[1].mass, float)
+
+
+@pytest.mark.parametrize("item, key, kind", [
+    ("vehicles.0.powered=yes", "vehicles.0.powered", "must be true or false"),
+    ('solver.dt="1e-4"', "solver.dt", "must be a number"),
+    ("vehicles.1.mass=true", "vehicles.1.mass", "must be a number"),
+])
+def test_set_overrides_follow_the_same_types(item, key, kind):
+    msg = refused("run", SHORT, "-q", "--set", item)
+    assert f"--set: {key}: {kind}" in msg, msg
+
+
+def test_case_and_sweep_tables_follow_the_same_types(tmp_path):
+    msg = load_error(tmp_path, EXAMPLE + '\n[cases.flag]\n"vehicles.0.powered" = "no"\n')
+    assert "[cases.flag]" in msg and "vehicles.0.powered" in msg and "true or false" in msg
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(f'scenario = "{SHORT}"\n[grid]\n"solver.dt" = [1e-4, "2e-4"]\n')
+    msg = refused("sweep", sweep, "-o", tmp_path / "out")
+    assert "s.toml" in msg and "solver.dt" in msg and "must be a number" in msg
+
+
+def test_study_refuses_an_unknown_case_listing_the_cases(tmp_path):
+    msg = refused("study", ROOT / "scenarios" / "paper.toml", "--case", "NOPE",
+                  "-o", tmp_path / "r")
+    assert "--case" in msg and "NOPE" in msg and "LHHL" in msg
+    assert not (tmp_path / "r").exists()  # refused before any work
+    msg = refused("study", SHORT, "--case", "NOPE", "-o", tmp_path / "r")
+    assert "--case" in msg and "NOPE" in msg and "no [cases.*]" in msg

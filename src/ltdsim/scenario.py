@@ -19,6 +19,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import (
     BaseModel,
+    BeforeValidator,
     ConfigDict,
     Field,
     ValidationError,
@@ -36,10 +37,21 @@ MAX_VEHICLES = 20_000
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True)
+    # strict types: a number must be a TOML number (integer or float; never a string or a
+    # boolean), an integer a TOML integer, a flag a TOML boolean, a name a string, so that
+    # ``mass = true`` or ``dt = "1e-4"`` is refused instead of read as 1 kg or 1e-4 s
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True,
+                              strict=True)
 
 
-Points = list[tuple[float, float]]
+def _array_to_tuple(v):
+    """TOML (and JSON) give arrays as lists; a table row is validated as a tuple."""
+    return tuple(v) if isinstance(v, list) else v
+
+
+Pair = Annotated[tuple[float, float], BeforeValidator(_array_to_tuple)]
+Triple = Annotated[tuple[float, float, float], BeforeValidator(_array_to_tuple)]
+Points = list[Pair]
 
 
 def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
@@ -430,7 +442,7 @@ class PID(_Strict):
 
 
 #: profile points ``[t, v]``, or ``[t, v, jerk_time]`` to round the corner at that point
-SpeedPoints = list[Union[tuple[float, float], tuple[float, float, float]]]
+SpeedPoints = list[Union[Pair, Triple]]
 
 
 class Driver(_Strict):
@@ -705,19 +717,49 @@ def load_scenario(path: str | Path, case: str | None = None) -> Scenario:
     """
     path = Path(path)
     source = str(path)
-    try:
-        with path.open("rb") as fh:
-            data = tomllib.load(fh)
-    except FileNotFoundError:
-        raise ScenarioError(source, [("", "file not found")]) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(source, [("", f"not valid TOML: {exc}")]) from None
+    data = read_toml(path)
     scenario = Scenario.from_dict(data, source)
     for name in scenario.cases:
         scenario.with_case(name, source)
     if case is not None:
         scenario = scenario.with_case(case, source)
     return scenario
+
+
+def read_toml(path: str | Path, what: str = "scenario file") -> dict:
+    """The table in TOML file ``path``, or a :class:`ScenarioError` in one line naming the
+    file and what is wrong with it: missing, a folder, unreadable (permissions), not UTF-8
+    text (a binary file, or a byte of another encoding in a string or comment; the line
+    and column are given), or not valid TOML."""
+    path = Path(path)
+    source = str(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise ScenarioError(source, [("", "file not found")]) from None
+    except IsADirectoryError:
+        raise ScenarioError(source, [("", f"is a folder, not a {what} (give the .toml "
+                                          "file)")]) from None
+    except PermissionError:
+        raise ScenarioError(source, [("", "cannot read the file: permission denied")]) from None
+    except OSError as exc:
+        raise ScenarioError(source, [("", f"cannot read the file: "
+                                          f"{exc.strerror or exc}")]) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        kind = ("a binary file, not TOML text" if b"\0" in raw[:8192] else
+                "not UTF-8 text")
+        raise ScenarioError(source, [("", f"{kind}: byte 0x{raw[exc.start]:02x} at line "
+                                          f"{line}, column {col} (TOML files are UTF-8: "
+                                          "save the file as UTF-8)")]) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        kind = "a binary file, not TOML text" if "\0" in text[:8192] else "not valid TOML"
+        raise ScenarioError(source, [("", f"{kind}: {exc}")]) from None
 
 
 def _set_dotted(data: dict, key: str, value: Any, source: str) -> None:
@@ -748,12 +790,28 @@ def _set_dotted(data: dict, key: str, value: Any, source: str) -> None:
 
 
 # ------------------------------------------------------------------ error text
+#: what a value of the wrong TOML type is told (strict types, see ``_Strict``)
+_TYPE_MESSAGES = {
+    "float_type": "must be a number (a TOML integer or float: not in quotes, not true/false)",
+    "int_type": "must be a whole number (a TOML integer such as 4: no decimal point, not in "
+                "quotes, not true/false)",
+    "bool_type": "must be true or false (a TOML boolean: not in quotes, not 0/1)",
+    "string_type": "must be a string (in quotes)",
+    "list_type": "must be an array [...]",
+    "tuple_type": "must be an array [...]",
+    "model_type": "must be a table",
+    "dict_type": "must be a table",
+}
+
+
 def _problems(exc: ValidationError) -> list[tuple[str, str]]:
-    out = []
+    out: list[tuple[str, str]] = []
     for err in exc.errors():
         loc = [str(p) for p in err["loc"] if not _is_internal(p)]
         key = ".".join(loc)
         msg = err["msg"]
+        if err["type"] in _TYPE_MESSAGES:
+            msg = _TYPE_MESSAGES[err["type"]]
         if err["type"] == "extra_forbidden":
             allowed = _allowed_keys(err["loc"][:-1])
             msg = f"unknown key {loc[-1]!r}" + (f"; allowed: {', '.join(allowed)}" if allowed else "")
@@ -765,9 +823,23 @@ def _problems(exc: ValidationError) -> list[tuple[str, str]]:
             msg = "must be a finite number (NaN and inf are not allowed)"
         if "input" in err and err["type"] not in ("missing", "extra_forbidden") and not isinstance(
                 err["input"], (dict, list)):
-            msg += f" (got {err['input']!r})"
-        out.append((key, msg))
+            msg += f" (got {_toml(err['input'])})"
+        same = [i for i, (k, _) in enumerate(out) if k == key]
+        if same:  # the members of a union (e.g. 'karwatzki' or a number): one line
+            i = same[0]
+            out[i] = (key, f"{out[i][1]}; or {msg}")
+        else:
+            out.append((key, msg))
     return out
+
+
+def _toml(value) -> str:
+    """A value as it reads in a TOML file (true, "text", 1.5)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return repr(value)
 
 
 def _is_internal(part) -> bool:

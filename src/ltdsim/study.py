@@ -356,9 +356,12 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     out = Path(out)
     scenario_path = Path(scenario_path)
     base = load_scenario(scenario_path)
-    if base.cases and case not in base.cases:
+    # a file without cases runs as it is under the default base case; any other name
+    # must be one of its cases
+    if case not in base.cases and (base.cases or case != STUDY_CASE):
+        avail = ", ".join(base.cases) or f"none (the file has no [cases.*]; leave --case out)"
         raise ScenarioError(str(scenario_path), [("--case", f"unknown case {case!r}; "
-                                                            f"available: {', '.join(base.cases)}")])
+                                                            f"available: {avail}")])
     # the overrides apply after the case's own keys, as in a sweep
     base_case = base.with_case(case) if case in base.cases else base
     if overrides:

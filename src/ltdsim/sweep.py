@@ -23,7 +23,6 @@ import itertools
 import json
 import multiprocessing
 import os
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +32,7 @@ import pandas as pd
 
 from ltdsim.errors import LtdsimError, ScenarioError
 from ltdsim.io import atomic_path
-from ltdsim.scenario import Scenario, load_scenario
+from ltdsim.scenario import Scenario, load_scenario, read_toml
 
 SWEEP_KEYS = {"name", "scenario", "case", "overrides", "grid", "list", "monte_carlo"}
 DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
@@ -92,12 +91,7 @@ def load_sweep(path: str | Path) -> Sweep:
     """
     path = Path(path)
     source = str(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ScenarioError(source, [("", "file not found")]) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(source, [("", f"not valid TOML: {exc}")]) from None
+    data = read_toml(path, "scenario or sweep file")
     if "scenario" not in data:
         base = load_scenario(path)
         if not base.cases:
