@@ -264,3 +264,33 @@ def test_study_refuses_an_unknown_case_listing_the_cases(tmp_path):
     assert not (tmp_path / "r").exists()  # refused before any work
     msg = refused("study", SHORT, "--case", "NOPE", "-o", tmp_path / "r")
     assert "--case" in msg and "NOPE" in msg and "no [cases.*]" in msg
+
+
+TABLE_GEAR = """
+[couplers.default]
+model = "table"
+slack = 0.025
+k_locked = 5e7
+loading = [[0.0, 5e4], [0.05, 1.2e6], [0.08, 2.4e6]]
+unloading = [[0.0, 2e4], [0.05, 0.6e6], [0.08, 1.6e6]]
+"""
+
+
+def _with_table_gear(loading: str) -> str:
+    head, _, rest = EXAMPLE.partition("[couplers.default]")
+    tail = rest[rest.index("[[couplers.override]]"):].replace("k3 = 7.998176e6",
+                                                               "k_locked = 6e7")
+    gear = TABLE_GEAR.replace("[[0.0, 5e4], [0.05, 1.2e6], [0.08, 2.4e6]]", loading)
+    return head + gear + "\n" + tail
+
+
+def test_a_falling_loading_curve_is_refused_naming_the_key_and_the_place(tmp_path):
+    ltdsim.load_scenario(write(tmp_path, _with_table_gear(
+        "[[0.0, 5e4], [0.05, 1.2e6], [0.08, 2.4e6]]")))  # the gear itself is valid
+    flat = ltdsim.load_scenario(write(tmp_path, _with_table_gear(
+        "[[0.0, 5e4], [0.05, 1.6e6], [0.08, 1.6e6]]")))  # level is allowed (non-decreasing)
+    assert flat.coupler(0).loading[-1][1] == 1.6e6
+    text = _with_table_gear("[[0.0, 5e4], [0.05, 2.4e6], [0.08, 1.7e6]]")
+    msg = refused("run", write(tmp_path, text), "-q")
+    assert "couplers.default: loading: the force must not decrease" in msg, msg
+    assert "from 2.4e+06 N at 0.05 m to 1.7e+06 N at 0.08 m" in msg

@@ -302,6 +302,12 @@ class CouplerParams(_Strict):
                          "forces in [0, 1e8] N")
             if pts[0][0] != 0.0:
                 raise ValueError(f"{name} must start at deflection 0")
+        # a gear resists more the further it is closed: a loading curve never falls
+        for (x0, f0), (x1, f1) in zip(self.loading, self.loading[1:]):
+            if f1 < f0:
+                raise ValueError(f"loading: the force must not decrease with deflection "
+                                 f"(a loading curve is monotone non-decreasing); it falls "
+                                 f"from {f0:g} N at {x0:g} m to {f1:g} N at {x1:g} m")
         xs = sorted({p[0] for p in self.loading} | {p[0] for p in self.unloading})
         import numpy as np
 
