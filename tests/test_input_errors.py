@@ -294,3 +294,120 @@ def test_a_falling_loading_curve_is_refused_naming_the_key_and_the_place(tmp_pat
     msg = refused("run", write(tmp_path, text), "-q")
     assert "couplers.default: loading: the force must not decrease" in msg, msg
     assert "from 2.4e+06 N at 0.05 m to 1.7e+06 N at 0.08 m" in msg
+
+
+# bad options: each numeric option of each command is checked before any work
+PAPER_TOML = ROOT / "scenarios" / "paper.toml"
+
+
+@pytest.mark.parametrize("args, option, words", [
+    (["modal", SHORT, "--stiffness", "-5"], "--stiffness", "(0, 1e12] N/m"),
+    (["modal", SHORT, "--stiffness", "stiff"], "--stiffness", "low (k1), high (k2 + k3)"),
+    (["modal", SHORT, "--series", "0"], "--series", "from 1 to 10"),
+    (["spectrum", SHORT, "--couplers", "0,99"], "--couplers",
+     "0, 99 out of range 1-4: couplers are numbered 1 to 4"),
+    (["spectrum", SHORT, "--couplers", "one"], "--couplers", "not a list of coupler numbers"),
+    (["sysid", SHORT, "--poles", "0"], "--poles", "from 1 to 20"),
+    (["sysid", SHORT, "--zeros", "5"], "--zeros", "from 0 to 4"),
+    (["sysid", SHORT, "--resample-dt", "-1"], "--resample-dt", "(0, 10] s"),
+    (["gear", "loop", "--preset", "mt-2", "--amplitude", "-0.1"], "--amplitude", "(0, 1] m"),
+    (["gear", "loop", "--preset", "mt-2", "--period", "0"], "--period", "[0.1, 3600] s"),
+    (["gear", "loop", "--preset", "mt-2", "--cycles", "0"], "--cycles", "from 1 to 100"),
+    (["gear", "impact", "--preset", "mt-2", "--speeds", "1,-1"], "--speeds", "(0, 30] m/s"),
+    (["gear", "impact", "--preset", "mt-2", "--mass", "0"], "--mass", "(0, 1e+06] kg"),
+    (["gear", "ratings", "--travel", "0.083", "--force", "2.27e6", "--capacity", "5e4",
+      "--absorptivity", "0.8", "--slack", "-1"], "--slack", "[0, 1] m"),
+    (["reduce", "--preset", "mt-2", "--mass", "-1"], "--mass", "(0, 1e+08] kg"),
+    (["reduce", "--preset", "mt-2", "--dt", "0"], "--dt", "(0, 0.01] s"),
+    (["reduce", "--preset", "mt-2", "--workers", "0"], "--workers", "or -1 (all cores)"),
+    (["reduce", "--preset", "mt-2", "--maxiter", "0"], "--maxiter", "from 1 to 1000000"),
+    (["reduce", "--preset", "mt-2", "--seed", "-2"], "--seed", "from 0 to"),
+    (["sweep", PAPER_TOML, "--workers", "-3"], "--workers", "from 1 to 1024"),
+    (["sweep", PAPER_TOML, "--workers", "0"], "--workers", "from 1 to 1024"),
+    (["study", PAPER_TOML, "--workers", "0"], "--workers", "from 1 to 1024"),
+    (["sweep", PAPER_TOML, "--scheduler", "somewhere"], "--scheduler", "tcp://HOST:PORT"),
+])
+def test_a_bad_option_is_named_with_its_range_before_any_work(tmp_path, args, option, words):
+    out = tmp_path / "out"
+    extra = [] if args[0] == "gear" else ["-o", out]
+    if args[:2] in (["gear", "loop"], ["gear", "ratings"]) or args[0] == "reduce":
+        extra = ["--plot", tmp_path / "fig.png"]
+    msg = refused(*args, *extra)
+    assert f"error (invalid input): {option}: " in msg and words in msg, msg
+    assert not out.exists() and not (tmp_path / "fig.png").exists()
+
+
+def test_an_unreachable_scheduler_is_refused_within_seconds(tmp_path):
+    import socket
+    import time
+
+    with socket.socket() as s:  # a port where nothing listens
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.perf_counter()
+    msg = refused("sweep", PAPER_TOML, "--scheduler", f"tcp://127.0.0.1:{port}",
+                  "-o", tmp_path / "out")
+    assert time.perf_counter() - t0 < 30.0  # loading the 16 cases, then a 3 s connect
+    assert "--scheduler" in msg and f"tcp://127.0.0.1:{port}" in msg and "cannot reach" in msg
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_listener_that_is_not_a_dask_scheduler_is_refused(tmp_path):
+    import socket
+    import threading
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(4)
+
+    def talk():  # answer every connection with bytes no Dask client can read
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            with conn:
+                conn.sendall(b"HTTP/1.1 200 OK\r\n\r\n" + bytes(range(256)) * 8)
+
+    threading.Thread(target=talk, daemon=True).start()
+    try:
+        msg = refused("sweep", PAPER_TOML, "--scheduler",
+                      f"tcp://127.0.0.1:{srv.getsockname()[1]}", "-o", tmp_path / "out")
+    finally:
+        srv.close()
+    assert "--scheduler" in msg and "no Dask scheduler answers" in msg
+
+
+@pytest.mark.parametrize("param, key, words", [
+    ('{ dist = "normal", mean = 9e4, std = -1.0 }', "parameters.vehicles.1.mass.std",
+     "must be 0 or more"),
+    ('{ dist = "lognormal", mean = 11.4, sigma = -0.1 }', "parameters.vehicles.1.mass.sigma",
+     "must be 0 or more"),
+    ('{ dist = "uniform", low = 9e4, high = 8e4 }', "parameters.vehicles.1.mass.high",
+     "at least low"),
+    ('{ dist = "normal", mean = "9e4", std = 1.0 }', "parameters.vehicles.1.mass.mean",
+     "must be a finite number"),
+    ('{ dist = "normal", mean = 9e4, std = true }', "parameters.vehicles.1.mass.std",
+     "must be a finite number"),
+    ('{ dist = "normal", mean = 9e4, sd = 1.0, std = 1.0 }', "parameters.vehicles.1.mass.sd",
+     "unknown key"),
+])
+def test_monte_carlo_parameters_are_checked(tmp_path, param, key, words):
+    p = tmp_path / "mc.toml"
+    p.write_text(f'scenario = "{SHORT}"\n[monte_carlo]\nsamples = 3\nseed = 1\n'
+                 f'[monte_carlo.parameters]\n"vehicles.1.mass" = {param}\n')
+    msg = refused("sweep", p, "-o", tmp_path / "out")
+    assert "mc.toml" in msg and f"monte_carlo.{key}" in msg and words in msg, msg
+
+
+@pytest.mark.parametrize("line, key", [("samples = true", "samples"),
+                                       ("seed = -4", "seed")])
+def test_monte_carlo_samples_and_seed_are_whole_numbers(tmp_path, line, key):
+    body = {"samples": "samples = 3", "seed": "seed = 1"}
+    body[key] = line
+    p = tmp_path / "mc.toml"
+    p.write_text(f'scenario = "{SHORT}"\n[monte_carlo]\n{body["samples"]}\n{body["seed"]}\n'
+                 '[monte_carlo.parameters]\n"vehicles.1.mass" = { dist = "normal", '
+                 'mean = 9e4, std = 1e3 }\n')
+    msg = refused("sweep", p, "-o", tmp_path / "out")
+    assert f"monte_carlo.{key}" in msg

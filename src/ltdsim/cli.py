@@ -132,7 +132,8 @@ def _simulate(sc, quiet: bool = False):
 
 
 def _fail(exc: LtdsimError) -> None:
-    kind = "invalid input" if isinstance(exc, ScenarioError) else "simulation failed"
+    kind = ("invalid input" if isinstance(exc, ScenarioError) else
+            "simulation failed" if isinstance(exc, SimulationError) else "run failed")
     # the message is plain text: "[brake]" or "[emergency]" must not be read as markup
     err_console.print(f"[bold red]error ({kind}):[/] {escape(str(exc))}", highlight=False,
                       soft_wrap=True)
@@ -142,6 +143,81 @@ def _fail(exc: LtdsimError) -> None:
 def _say(text: str) -> None:
     """Print a line of plain text (no markup: names and paths may hold brackets)."""
     console.print(text, markup=False, highlight=False, soft_wrap=True)
+
+
+def _check_number(option: str, value, lo=None, hi=None, *, lo_open: bool = False,
+                  unit: str = "", whole: bool = False, also: str = "") -> None:
+    """Refuse, before any work, a numeric option outside its range (or not finite):
+    ``--series: must be a whole number from 1 to 10 (got 0)``. ``lo_open`` excludes
+    ``lo``; ``also`` names an extra allowed value (``-1 (all cores)``)."""
+    import math
+
+    ok = isinstance(value, (int, float)) and math.isfinite(value)
+    if ok and lo is not None:
+        ok = value > lo if lo_open else value >= lo
+    if ok and hi is not None:
+        ok = value <= hi
+    if ok:
+        return
+    u = f" {unit}" if unit else ""
+    kind = "a whole number" if whole else "a number"
+
+    def num(x):
+        return str(int(x)) if whole else f"{x:g}"
+
+    if lo is not None and hi is not None:
+        rng = (f"in ({num(lo)}, {num(hi)}]{u}" if lo_open else
+               f"from {num(lo)} to {num(hi)}{u}" if whole else f"in [{num(lo)}, {num(hi)}]{u}")
+    elif lo is not None:
+        rng = f"greater than {num(lo)}{u}" if lo_open else f"at least {num(lo)}{u}"
+    else:
+        rng = f"at most {num(hi)}{u}"
+    extra = f", or {also}" if also else ""
+    raise ScenarioError(option, [("", f"must be {kind} {rng}{extra} (got {value:g})")])
+
+
+def _check_workers(workers: Optional[int], option: str = "--workers") -> None:
+    """Local worker processes: at least 1 (none given: one per core)."""
+    if workers is not None:
+        _check_number(option, workers, 1, 1024, whole=True)
+
+
+def _check_scheduler(address: Optional[str], timeout: float = 3.0) -> None:
+    """Refuse, before any work and within ``timeout`` seconds, a Dask scheduler address
+    that is malformed or where nothing answers."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if address is None:
+        return
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:  # a port that is not a number
+        host = port = None
+    if parts.scheme not in ("tcp", "tls") or not host or port is None:
+        raise ScenarioError("--scheduler", [("", f"not a scheduler address: {address!r}; "
+                                                  "give tcp://HOST:PORT (e.g. "
+                                                  "tcp://10.0.0.5:8786)")])
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        why = "no answer" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc))
+        raise ScenarioError("--scheduler", [("", f"cannot reach a Dask scheduler at "
+                                                  f"{address} ({why} within {timeout:g} s); "
+                                                  "start it or check the address")]) from None
+    # something listens there: is it a Dask scheduler? (a proxy or another service
+    # answers with bytes a Dask client cannot read)
+    from distributed import Client
+
+    try:
+        Client(address, timeout=timeout).close()
+    except Exception as exc:  # noqa: BLE001 - whatever the far end sent
+        why = (" ".join(str(exc).split())[:100] if isinstance(exc, (OSError, TimeoutError))
+               else "what answers there does not speak Dask's protocol")
+        raise ScenarioError("--scheduler", [("", f"no Dask scheduler answers at {address} "
+                                                  f"({why}); start it or check the "
+                                                  "address")]) from None
 
 
 #: result files ``-o/--output`` writes (netCDF-4, readable by MATLAB, Python, Julia, R)
@@ -364,6 +440,9 @@ def gear_loop(
 
     try:
         _check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
+        _check_number("--amplitude", amplitude, 0.0, 1.0, lo_open=True, unit="m")
+        _check_number("--period", period, 0.1, 3600.0, unit="s")
+        _check_number("--cycles", cycles, 1, 100, whole=True)
         params = _gear_params(preset, scenario, coupler)
     except ScenarioError as exc:
         _fail(exc)
@@ -395,13 +474,18 @@ def gear_impact(
 
     try:
         _check_output(csv, "--csv", (".csv",), inputs=(scenario,))
+        _check_number("--mass", mass, 0.0, 1e6, lo_open=True, unit="kg")
         params = _gear_params(preset, scenario, coupler)
         values = [float(v) for v in speeds.split(",") if v.strip()]
+        if not values:
+            raise ValueError
+        for v in values:
+            _check_number("--speeds", v, 0.0, 30.0, lo_open=True, unit="m/s")
     except ScenarioError as exc:
         _fail(exc)
         return
     except ValueError:
-        _fail(ScenarioError("--speeds", [("speeds", f"not a list of numbers: {speeds!r}")]))
+        _fail(ScenarioError("--speeds", [("", f"not a list of numbers: {speeds!r}")]))
         return
     rows = []
     table = _table(f"Impact of two {mass / 1e3:.0f} t wagons ({params.model} gear)",
@@ -445,6 +529,7 @@ def gear_ratings(
     try:
         _check_output(toml, "--toml", (".toml",))
         _check_output(plot, "--plot", image_suffixes())
+        _check_number("--slack", slack, 0.0, 1.0, unit="m")
     except ScenarioError as exc:
         _fail(exc)
         return
@@ -516,6 +601,12 @@ def reduce(
     try:
         _check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
         _check_output(toml, "--toml", (".toml",), inputs=(scenario,))
+        _check_number("--mass", mass, 0.0, 1e8, lo_open=True, unit="kg")
+        _check_number("--dt", dt, 0.0, 1e-2, lo_open=True, unit="s")
+        if workers != -1:
+            _check_number("--workers", workers, 1, 1024, whole=True, also="-1 (all cores)")
+        _check_number("--maxiter", maxiter, 1, 1_000_000, whole=True)
+        _check_number("--seed", seed, 0, 2**32 - 1, whole=True)
         target = _gear_params(preset, scenario, coupler)
         if rig not in ("deflection", "force"):
             raise ScenarioError("--rig", [("rig", f"must be deflection or force, got {rig!r}")])
@@ -582,9 +673,11 @@ def sweep(
         return
     try:
         _check_folder(output)
+        _check_workers(workers)
         spec = sw.load_sweep(file)
         if set_:
             spec = sw.with_overrides(spec, parse_set(set_))
+        _check_scheduler(scheduler)
     except ScenarioError as exc:
         _fail(exc)
         return
@@ -595,6 +688,12 @@ def sweep(
                                    keep_results=keep_results, retry_failed=retry_failed,
                                    progress=lambda d, n, c: update(d),
                                    on_compile=show.compiling)
+        except (OSError, TimeoutError) as exc:
+            if not scheduler:
+                raise
+            _fail(LtdsimError(f"--scheduler: the Dask scheduler at {scheduler} did not "
+                              f"take the work: {exc}"))
+            return
         except KeyboardInterrupt:
             err_console.print("[yellow]interrupted: finished cases are kept; run the same "
                               "command again to resume[/]")
@@ -725,12 +824,23 @@ def modal(
 
     try:
         _check_folder(output)
+        _check_number("--series", series, 1, 10, whole=True)
+        if stiffness in ("low", "high"):
+            which = stiffness
+        else:
+            try:
+                which = float(stiffness)
+            except ValueError:
+                which = float("nan")
+            if not 0.0 < which <= 1e12:
+                raise ScenarioError("--stiffness", [("", f"must be low (k1), high (k2 + k3) "
+                                                         "or a stiffness in (0, 1e12] N/m "
+                                                         f"(got {stiffness})")])
         _, sc = _result_or_scenario(file, case, run=False, overrides=set_)
-        which = stiffness if stiffness in ("low", "high") else float(stiffness)
         table = train_modes(sc, which, series)
     except (ScenarioError, ValueError) as exc:
         _fail(exc if isinstance(exc, ScenarioError) else
-              ScenarioError("--stiffness", [("stiffness", str(exc))]))
+              ScenarioError("--stiffness", [("", str(exc))]))
         return
     out = _table(f"Modes of {file}" + (f" [{sc.case}]" if sc.case else "")
                  + f", {stiffness} stiffness, {series} gear(s) per coupling",
@@ -812,7 +922,8 @@ def _check_couplers(numbers, n: int) -> None:
     bad = [c for c in numbers or () if not 1 <= c <= n]
     if bad:
         raise ScenarioError("--couplers", [("", f"{', '.join(map(str, bad))} out of range "
-                                                f"1-{n} (coupler 1 is behind the lead)")])
+                                                f"1-{n}: couplers are numbered 1 to {n} "
+                                                "(coupler 1 is behind the lead)")])
 
 
 @app.command()
@@ -838,7 +949,16 @@ def sysid(
 
     try:
         _check_folder(output)
+        _check_number("--poles", poles, 1, 20, whole=True)
+        _check_number("--zeros", zeros, 0, poles, whole=True)
+        if resample_dt is not None:
+            _check_number("--resample-dt", resample_dt, 0.0, 10.0, lo_open=True, unit="s")
         ds, _ = _result_or_scenario(file, case, overrides=set_, quiet=quiet)
+        step = float(ds.time[1] - ds.time[0]) if ds.sizes["time"] > 1 else float("nan")
+        if resample_dt is not None and resample_dt < step * (1 - 1e-9):
+            raise ScenarioError("--resample-dt", [("", f"must be at least the record's "
+                                                       f"interval, {step:g} s (got "
+                                                       f"{resample_dt:g})")])
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
@@ -888,6 +1008,7 @@ def study(
     from ltdsim.study import run_study
 
     try:
+        _check_workers(workers)
         overrides = parse_set(set_) if set_ else None
         with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,

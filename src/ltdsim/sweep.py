@@ -145,24 +145,49 @@ def _monte_carlo(source, mc: dict) -> list[dict]:
                                                           f"{', '.join(sorted(allowed))}")
                                      for k in bad])
     n = mc.get("samples")
-    if not isinstance(n, int) or not 1 <= n <= 100_000:
-        raise ScenarioError(source, [("monte_carlo.samples", "an integer from 1 to 100000")])
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 100_000:
+        raise ScenarioError(source, [("monte_carlo.samples", "an integer from 1 to 100000"
+                                                             f" (got {n!r})")])
     if "seed" not in mc:
         raise ScenarioError(source, [("monte_carlo.seed", "required: samples must be "
                                                           "reproducible")])
-    rng = np.random.default_rng(mc["seed"])
+    seed = mc["seed"]
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ScenarioError(source, [("monte_carlo.seed", f"a whole number, 0 or more "
+                                                          f"(got {seed!r})")])
+    rng = np.random.default_rng(seed)
+    params = mc.get("parameters", {})
+    if not isinstance(params, dict):
+        raise ScenarioError(source, [("monte_carlo.parameters", "must be a table of "
+                                                                "\"key\" = { dist = ... }")])
     columns = {}
-    for key, spec in mc.get("parameters", {}).items():
+    for key, spec in params.items():
+        where = f"monte_carlo.parameters.{key}"
         dist = spec.get("dist") if isinstance(spec, dict) else None
         if dist not in DISTRIBUTIONS:
-            raise ScenarioError(source, [(f"monte_carlo.parameters.{key}.dist",
+            raise ScenarioError(source, [(f"{where}.dist",
                                           f"one of {', '.join(DISTRIBUTIONS)}")])
         args = DISTRIBUTIONS[dist]
         missing = [a for a in args if a not in spec]
         if missing:
-            raise ScenarioError(source, [(f"monte_carlo.parameters.{key}",
-                                          f"{dist} needs {', '.join(args)}")])
+            raise ScenarioError(source, [(where, f"{dist} needs {', '.join(args)}")])
+        extra = sorted(set(spec) - {"dist", *args})
+        if extra:
+            raise ScenarioError(source, [(f"{where}.{extra[0]}", f"unknown key; {dist} takes "
+                                                                 f"{', '.join(args)}")])
+        for x in args:
+            v = spec[x]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+                raise ScenarioError(source, [(f"{where}.{x}", "must be a finite number (a TOML "
+                                                              "integer or float: not in quotes, "
+                                                              f"not true/false) (got {v!r})")])
         a, b = (float(spec[x]) for x in args)
+        if dist == "uniform" and b < a:
+            raise ScenarioError(source, [(f"{where}.high", f"must be at least low ({a:g}) "
+                                                           f"(got {b:g})")])
+        if dist in ("normal", "lognormal") and b < 0.0:
+            raise ScenarioError(source, [(f"{where}.{args[1]}", f"must be 0 or more, a "
+                                                                f"spread (got {b:g})")])
         columns[key] = getattr(rng, dist)(a, b, size=n)
     if not columns:
         raise ScenarioError(source, [("monte_carlo.parameters", "no parameters to sample")])
