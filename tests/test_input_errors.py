@@ -98,6 +98,7 @@ def test_a_diverging_simulation_stops_and_names_time_vehicle_and_values():
     # explicit Euler far beyond its stability limit: k/m = 1e5 1/s^2 at dt = 0.01 s
     d = train_dict([1e4, 1e4, 1e4], t_end=100.0, dt=1e-2, method="euler",
                    coupler={"model": "linear", "stiffness": 1e9, "damping": 0.0, "slack": 0.0})
+    d["solver"]["stability_check"] = False  # (else refused at load: see issue 13 below)
     with pytest.raises(SimulationError) as info:
         ltdsim.simulate(build(d))
     err = info.value
@@ -411,3 +412,111 @@ def test_monte_carlo_samples_and_seed_are_whole_numbers(tmp_path, line, key):
                  'mean = 9e4, std = 1e3 }\n')
     msg = refused("sweep", p, "-o", tmp_path / "out")
     assert f"monte_carlo.{key}" in msg
+
+
+# explicit fixed-step methods: the largest stable step (ltdsim.stability)
+from ltdsim.stability import (  # noqa: E402
+    WARN_SHARE,
+    imaginary_radius,
+    real_radius,
+    step_limit,
+)
+
+
+def _taylor(order):
+    """exp(z) truncated after z^order: the stability polynomial of every explicit RK
+    method with as many stages as its order (euler, heun, ode3, rk4)."""
+    import math
+
+    return lambda z: sum(z**k / math.factorial(k) for k in range(order + 1))
+
+
+@pytest.mark.parametrize("method, order", [("euler", 1), ("heun", 2), ("ode3", 3), ("rk4", 4)])
+def test_stability_radii_from_the_tableaux_match_the_closed_forms(method, order):
+    from scipy.optimize import brentq
+
+    R = _taylor(order)
+    # imaginary axis: |R(iy)|^2 = 1 + y^2 (euler), 1 + y^4/4 (heun): no stable interval;
+    # 1 - y^4/12 + y^6/36 (ode3): sqrt(3); 1 - y^6/72 + y^8/576 (rk4): 2 sqrt(2)
+    expected_imag = {1: 0.0, 2: 0.0, 3: np.sqrt(3.0), 4: 2.0 * np.sqrt(2.0)}[order]
+    assert imaginary_radius(method) == pytest.approx(expected_imag, abs=1e-9)
+    # negative real axis: the first x > 0 where |R(-x)| = 1
+    x = brentq(lambda x: abs(R(-x)) - 1.0, 1.5, 3.0) if order > 2 else 2.0
+    assert real_radius(method) == pytest.approx(x, rel=1e-9)
+    assert abs(R(-0.99 * x)) < 1.0 < abs(R(-1.01 * x))
+
+
+def _two_masses(method, dt, steps, damping, stability_check=True):
+    d = train_dict([1.0e4, 1.5e4], force=0.0, dt=dt, t_end=steps * dt, method=method,
+                   coupler={"model": "linear", "stiffness": 1.0e7, "damping": damping,
+                            "slack": 0.0})
+    d["initial"] = {"velocities": [0.5, -1.0 / 3.0]}  # no net momentum: a pure oscillation
+    d["solver"]["stability_check"] = stability_check
+    return d
+
+
+def _growth(method, dt, steps, damping):
+    """Largest |coupler force| over the last tenth of the run / over the first tenth
+    (inf if the run diverged to non-finite values)."""
+    try:
+        ds = ltdsim.simulate(build(_two_masses(method, dt, steps, damping, False)))
+    except SimulationError:
+        return np.inf
+    f = np.abs(ds.coupler_force.values[:, 0])
+    k = len(f) // 10
+    return f[-k:].max() / f[:k].max()
+
+
+@pytest.mark.parametrize("method, damping, steps", [
+    ("ode3", 0.0, 3000), ("rk4", 0.0, 3000),       # undamped: the imaginary axis
+    ("euler", 5.0e4, 10000), ("heun", 2.0e4, 6000),  # damped (zeta = 0.10, 0.04)
+])
+def test_a_two_mass_train_diverges_just_above_the_limit_and_not_below(method, damping, steps):
+    omega = np.sqrt(1.0e7 * (1 / 1.0e4 + 1 / 1.5e4))  # rad/s, the one oscillating mode
+    lim = step_limit(build(_two_masses(method, 1e-4, 10, damping)))
+    assert lim.omega == pytest.approx(omega, rel=1e-12)
+    assert lim.zeta == pytest.approx(damping * omega / (2 * 1.0e7), rel=1e-12)
+    if damping == 0.0:
+        assert lim.limit == pytest.approx(imaginary_radius(method) / omega, rel=1e-9)
+    if method == "euler":  # |1 + h lambda| = 1 at h = c / k
+        assert lim.limit == pytest.approx(damping / 1.0e7, rel=1e-9)
+    below, above = 0.97 * lim.limit, 1.03 * lim.limit
+    build(_two_masses(method, below, steps, damping))  # accepted
+    with pytest.raises(ScenarioError, match="solver.dt"):
+        build(_two_masses(method, above, steps, damping))
+    assert _growth(method, below, steps, damping) <= 1.0
+    assert _growth(method, above, steps, damping) > 3.0
+
+
+def test_the_issues_euler_run_is_refused_naming_the_key_and_the_largest_stable_step():
+    lim = step_limit(ltdsim.load_scenario(SHORT).with_overrides({"solver.method": "euler"}))
+    msg = refused("run", SHORT, "-q", "--set", "solver.method=euler", "--set", "solver.dt=0.01",
+                  "--set", "solver.output_interval=0.01", "--set", "driver.pid.ts=0.01")
+    assert "--set: solver.dt: 0.01 s is above the largest stable step of euler" in msg
+    assert f"{lim.limit:.3g} s" in msg and "ode3 (up to" in msg and "bs23" in msg
+
+
+def test_a_step_near_the_limit_runs_with_a_warning():
+    sc = ltdsim.load_scenario(SHORT).with_overrides({"solver.method": "euler"})
+    assert WARN_SHARE < step_limit(sc).share <= 1.0  # euler at 1e-4 s: near its limit
+    res = RUNNER.invoke(app, ["run", str(SHORT), "-q", "--set", "solver.method=euler",
+                              "--set", "solver.t_end=0.2", "--set", "solver.output_interval=0.1"])
+    assert res.exit_code == 0, res.output
+    text = " ".join(res.stderr.split())
+    assert "warning: solver.dt = 0.0001 s is" in text and "largest stable step of euler" in text
+
+
+def test_no_shipped_scenario_or_study_case_is_near_its_limit_and_adaptive_is_not_checked():
+    for path in sorted((ROOT / "scenarios").glob("*.toml")):
+        if "scenario = " in path.read_text():
+            continue  # a sweep file
+        sc = ltdsim.load_scenario(path)
+        for case in [None, *sc.cases]:
+            lim = step_limit(sc if case is None else sc.with_case(case))
+            assert lim is None or lim.share < WARN_SHARE / 10, (path.name, case)
+    hh = ltdsim.load_scenario(ROOT / "scenarios" / "heavy-haul.toml")
+    assert hh.solver.adaptive and step_limit(hh) is None
+    # bs23 with a first step far above euler's limit is accepted
+    ltdsim.load_scenario(SHORT).with_overrides({"solver.method": "bs23", "solver.dt": 0.01,
+                                                "solver.output_interval": 0.01,
+                                                "driver.pid.ts": 0.01})

@@ -95,6 +95,7 @@ def test_a_failing_case_is_recorded_and_the_sweep_goes_on(tmp_path):
 "solver.t_end" = 1.0
 "solver.method" = "euler"
 "solver.dt" = 1e-2
+"solver.stability_check" = false
 "solver.output_interval" = 1e-2
 "driver.pid.ts" = 1e-2
 [list]

@@ -121,8 +121,12 @@ def _simulate(sc, quiet: bool = False):
     """Simulate ``sc``: compile or load its kernel first ("compiling (first run only)"),
     then a progress bar of simulated seconds on stderr (plain lines in a log)."""
     from ltdsim.simulate import simulate
+    from ltdsim.stability import step_limit, warning
     from ltdsim.warmup import scenario_kernels, warm_up
 
+    near = warning(step_limit(sc))
+    if near:
+        err_console.print(f"[yellow]warning:[/] {escape(near)}", soft_wrap=True)
     with Display(err_console, quiet=quiet) as show:
         warm_up(scenario_kernels([sc]), show.compiling)
         update = show.bar(f"simulating {_label(sc)}", sc.solver.n_steps * sc.solver.dt,

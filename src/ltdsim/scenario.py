@@ -81,6 +81,9 @@ class Solver(_Strict):
     atol: float = Field(1e-6, gt=0.0, le=1.0,
                         description="bs23 absolute tolerance, m and m/s (forces: x 1e6 N/m)")
     max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23 largest step, s")
+    stability_check: bool = Field(
+        True, description="refuse a fixed step above the method's largest stable step for "
+                          "the train (ltdsim.stability); false runs it anyway")
 
     @property
     def adaptive(self) -> bool:
@@ -606,6 +609,7 @@ class Scenario(_Strict):
             if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-6 * ratio:
                 raise ValueError(f"driver.pid.ts ({pid.ts:g} s) must be a whole multiple of "
                                  f"solver.dt ({self.solver.dt:g} s)")
+        merged = []
         if self.couplers is not None:
             for k, o in enumerate(self.couplers.override):
                 if o.index > n - 2:
@@ -614,11 +618,17 @@ class Scenario(_Strict):
                         f"{n} vehicles have coupler indices 0 to {n - 2}")
             for i in range(n - 1):
                 try:
-                    self.coupler(i)  # validates merged parameters
+                    merged.append(self.coupler(i))  # validates merged parameters
                 except ValidationError as exc:
                     text = "; ".join(m for _, m in _problems(exc))
                     raise ValueError(f"coupler {i + 1} (index {i}; default merged with "
                                      f"overrides): {text}") from None
+        if self.solver.stability_check and not self.solver.adaptive:
+            from ltdsim.stability import refusal, step_limit
+
+            lim = step_limit(self, merged)
+            if lim.share > 1.0:
+                raise ValueError(refusal(lim))
         return self
 
     def _check_locomotives(self, n: int) -> None:
