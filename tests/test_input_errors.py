@@ -520,3 +520,98 @@ def test_no_shipped_scenario_or_study_case_is_near_its_limit_and_adaptive_is_not
     ltdsim.load_scenario(SHORT).with_overrides({"solver.method": "bs23", "solver.dt": 0.01,
                                                 "solver.output_interval": 0.01,
                                                 "driver.pid.ts": 0.01})
+
+
+# property: a mutated shipped scenario loads, or is refused cleanly (ScenarioError naming
+# the file on every line); never another exception. Load only (and lowering to kernel
+# arrays when it loads): no simulation, so the examples stay fast.
+import copy as _copy  # noqa: E402
+import tomllib  # noqa: E402
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from ltdsim.lowering import lower  # noqa: E402
+from ltdsim.scenario import scenario_from_data  # noqa: E402
+
+SHIPPED = {p.name: p.read_bytes() for p in sorted((ROOT / "scenarios").glob("*.toml"))
+           if b"scenario = " not in p.read_bytes()}  # (not the sweep file)
+PARSED = {name: tomllib.loads(raw.decode()) for name, raw in SHIPPED.items()}
+
+
+def _places(node, path=()):
+    """Every (path, value) below ``node``, tables and arrays included."""
+    items = node.items() if isinstance(node, dict) else enumerate(node) \
+        if isinstance(node, list) else ()
+    for k, v in items:
+        yield path + (k,), v
+        yield from _places(v, path + (k,))
+
+
+TOML_VALUES = st.recursive(
+    st.one_of(st.booleans(), st.integers(-2**63, 2**63 - 1), st.floats(allow_nan=True),
+              st.text(max_size=12), st.sampled_from(["ode3", "linear", "table", "speed",
+                                                      "friction-wedge-high", "karwatzki"])),
+    lambda inner: st.one_of(st.lists(inner, max_size=3),
+                            st.dictionaries(st.text(max_size=8), inner, max_size=3)),
+    max_leaves=6)
+
+
+def _clean_or_valid(load, source):
+    try:
+        sc = load()
+    except ScenarioError as exc:
+        lines = str(exc).splitlines()
+        assert lines and all(line.startswith(source) for line in lines), str(exc)
+        return
+    lower(sc)  # a scenario that loads can be lowered to the kernel's arrays
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(name=st.sampled_from(sorted(PARSED)), data=st.data())
+def test_a_scenario_with_mutated_values_loads_or_is_refused_cleanly(name, data):
+    tree = _copy.deepcopy(PARSED[name])
+    for _ in range(data.draw(st.integers(1, 3), label="mutations")):
+        places = list(_places(tree))
+        path, _ = places[data.draw(st.integers(0, len(places) - 1), label="where")]
+        parent = tree
+        for part in path[:-1]:
+            parent = parent[part]
+        op = data.draw(st.sampled_from(["replace", "delete", "add"]), label="op")
+        if op == "delete":
+            del parent[path[-1]]
+        elif op == "replace":
+            parent[path[-1]] = data.draw(TOML_VALUES, label="value")
+        elif isinstance(parent, dict):
+            parent[data.draw(st.text(max_size=8), label="key")] = data.draw(TOML_VALUES)
+        else:
+            parent.append(data.draw(TOML_VALUES, label="item"))
+    _clean_or_valid(lambda: scenario_from_data(tree, name), name)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(name=st.sampled_from(sorted(SHIPPED)), data=st.data())
+def test_a_scenario_file_with_mutated_text_loads_or_is_refused_cleanly(tmp_path_factory, name,
+                                                                       data):
+    raw = SHIPPED[name]
+    lines = raw.splitlines(keepends=True)
+    op = data.draw(st.sampled_from(["duplicate line", "delete line", "insert bytes",
+                                    "overwrite bytes", "truncate"]), label="op")
+    k = data.draw(st.integers(0, len(lines) - 1), label="line")
+    at = data.draw(st.integers(0, len(raw)), label="at")
+    noise = data.draw(st.binary(min_size=1, max_size=16), label="bytes")
+    if op == "duplicate line":
+        lines.insert(k, lines[k])
+        raw = b"".join(lines)
+    elif op == "delete line":
+        del lines[k]
+        raw = b"".join(lines)
+    elif op == "insert bytes":
+        raw = raw[:at] + noise + raw[at:]
+    elif op == "overwrite bytes":
+        raw = raw[:at] + noise + raw[at + len(noise):]
+    else:
+        raw = raw[:at]
+    p = tmp_path_factory.mktemp("mutated") / name
+    p.write_bytes(raw)
+    _clean_or_valid(lambda: ltdsim.load_scenario(p), str(p))

@@ -18,7 +18,15 @@ class ScenarioError(LtdsimError, ValueError):
         self.source = source
         self.problems = problems
         lines = [f"{source}: {key}: {msg}" if key else f"{source}: {msg}" for key, msg in problems]
-        super().__init__("\n".join(lines))
+        super().__init__("\n".join(_printable(line) for line in lines))
+
+
+def _printable(text: str) -> str:
+    """``text`` with control and other unprintable characters escaped (``\\x1e``): a
+    key or value read from a file may hold them, and a problem must stay one line."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 class SimulationError(LtdsimError, RuntimeError):

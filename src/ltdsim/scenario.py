@@ -9,6 +9,8 @@ dotted key and the allowed values.
 
 from __future__ import annotations
 
+import copy
+import functools
 import math
 import tomllib
 import types
@@ -28,7 +30,7 @@ from pydantic import (
     model_validator,
 )
 
-from ltdsim.errors import ScenarioError
+from ltdsim.errors import ScenarioError, _printable
 
 # Physical sanity bounds used in validation (documented in docs/scenario.md).
 MAX_MASS = 1.0e6  # kg, one vehicle
@@ -192,10 +194,21 @@ def gear_presets() -> list[str]:
 
 def load_gear_preset(name: str) -> dict:
     """The keys of gear parameter set ``name`` (see :func:`gear_presets`)."""
-    names = gear_presets()
-    if name not in names:
+    names = _preset_names()
+    if not isinstance(name, str) or name not in names:
         raise ValueError(f"unknown preset {name!r}; available: "
                          f"{', '.join(names) or 'none (this install lacks its package data)'}")
+    return copy.deepcopy(_read_preset(name))
+
+
+@functools.lru_cache(maxsize=1)
+def _preset_names() -> tuple[str, ...]:
+    return tuple(gear_presets())
+
+
+@functools.lru_cache(maxsize=None)
+def _read_preset(name: str) -> dict:
+    # read once per process: a train of 200 preset gears validates each coupler
     return tomllib.loads(_gear_dir().joinpath(f"{name}.toml").read_text(encoding="utf-8"))
 
 
@@ -732,8 +745,12 @@ def load_scenario(path: str | Path, case: str | None = None) -> Scenario:
         With the file name, the dotted key and the allowed range for each problem.
     """
     path = Path(path)
-    source = str(path)
-    data = read_toml(path)
+    return scenario_from_data(read_toml(path), str(path), case)
+
+
+def scenario_from_data(data: dict, source: str, case: str | None = None) -> Scenario:
+    """:func:`load_scenario` of a table already read (``source`` names it in messages):
+    the scenario and every case validated, ``case`` applied."""
     scenario = Scenario.from_dict(data, source)
     for name in scenario.cases:
         scenario.with_case(name, source)
@@ -824,13 +841,16 @@ def _problems(exc: ValidationError) -> list[tuple[str, str]]:
     out: list[tuple[str, str]] = []
     for err in exc.errors():
         loc = [str(p) for p in err["loc"] if not _is_internal(p)]
+        if err["type"] == "extra_forbidden":  # the last part is the file's key, as it is
+            loc = [str(p) for p in err["loc"][:-1] if not _is_internal(p)] + [
+                str(err["loc"][-1])]
         key = ".".join(loc)
         msg = err["msg"]
         if err["type"] in _TYPE_MESSAGES:
             msg = _TYPE_MESSAGES[err["type"]]
         if err["type"] == "extra_forbidden":
             allowed = _allowed_keys(err["loc"][:-1])
-            msg = f"unknown key {loc[-1]!r}" + (f"; allowed: {', '.join(allowed)}" if allowed else "")
+            msg = f"unknown key '{loc[-1]}'" + (f"; allowed: {', '.join(allowed)}" if allowed else "")
         elif err["type"] == "missing":
             msg = "required key is missing"
         elif msg.startswith("Value error, "):
@@ -854,7 +874,7 @@ def _toml(value) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        return '"' + _printable(value.replace("\\", "\\\\").replace('"', '\\"')) + '"'
     return repr(value)
 
 
