@@ -63,7 +63,8 @@ def ray_radius(method: str, angle: float) -> float:
     ray ``z = r exp(i angle)`` (angle in rad: pi/2 the imaginary axis, pi the negative
     real axis); 0 when ``|R|`` exceeds 1 right from the origin; inf when it never does."""
     d = complex(math.cos(angle), math.sin(angle))
-    a = stability_polynomial(method) * d ** np.arange(len(stability_polynomial(method)))
+    c = stability_polynomial(method)
+    a = c * d ** np.arange(len(c))  # R(r d) = sum a_k r^k
     p = np.convolve(a, np.conj(a)).real  # |R(r d)|^2 as a polynomial in r (low first)
     p[0] -= 1.0
     q = p[1:]  # (|R|^2 - 1) / r
