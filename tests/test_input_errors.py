@@ -258,6 +258,22 @@ def test_case_and_sweep_tables_follow_the_same_types(tmp_path):
     assert "s.toml" in msg and "solver.dt" in msg and "must be a number" in msg
 
 
+def test_a_case_problem_keeps_its_brackets_on_the_command_line(tmp_path):
+    bad = write(tmp_path, EXAMPLE + '\n[cases.flag]\n"vehicles.0.powered" = "no"\n')
+    msg = refused("run", bad, "-q")
+    assert "bad.toml [cases.flag]: vehicles.0.powered: must be true or false" in msg, msg
+
+
+def test_odd_keys_are_shown_escaped_in_one_line(tmp_path):
+    # found by the property test below: a control character in a key split the message,
+    # a key holding "[" crashed the unknown-key message
+    msg = load_error(tmp_path, EXAMPLE.replace('name = "short-train"',
+                                               'name = "short-train"\n"odd\\u001e" = 1'))
+    assert "unknown key 'odd\\x1e'" in msg and len(msg.splitlines()) == 1
+    msg = load_error(tmp_path, EXAMPLE + '\n[cases.x]\n"[" = 1\n')
+    assert "[cases.x]: [: unknown key '['" in msg
+
+
 def test_study_refuses_an_unknown_case_listing_the_cases(tmp_path):
     msg = refused("study", ROOT / "scenarios" / "paper.toml", "--case", "NOPE",
                   "-o", tmp_path / "r")
