@@ -160,9 +160,9 @@ def test_impossible_gear_ratings_are_named(args, key):
 # -- issue 13: reading and types
 # Bad files and values of the wrong TOML type are refused in one line naming the file and
 # the key, exit code 2, no traceback.
-from typer.testing import CliRunner  # noqa: E402
+from typer.testing import CliRunner
 
-from ltdsim.cli import app  # noqa: E402
+from ltdsim.cli import app
 
 RUNNER = CliRunner()
 SHORT = ROOT / "scenarios" / "short-train.toml"
@@ -431,7 +431,7 @@ def test_monte_carlo_samples_and_seed_are_whole_numbers(tmp_path, line, key):
 
 
 # explicit fixed-step methods: the largest stable step (ltdsim.stability)
-from ltdsim.stability import (  # noqa: E402
+from ltdsim.stability import (
     WARN_SHARE,
     imaginary_radius,
     real_radius,
@@ -541,14 +541,14 @@ def test_no_shipped_scenario_or_study_case_is_near_its_limit_and_adaptive_is_not
 # property: a mutated shipped scenario loads, or is refused cleanly (ScenarioError naming
 # the file on every line); never another exception. Load only (and lowering to kernel
 # arrays when it loads): no simulation, so the examples stay fast.
-import copy as _copy  # noqa: E402
-import tomllib  # noqa: E402
+import copy as _copy
+import tomllib
 
-from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from ltdsim.lowering import lower  # noqa: E402
-from ltdsim.scenario import scenario_from_data  # noqa: E402
+from ltdsim.lowering import lower
+from ltdsim.scenario import scenario_from_data
 
 SHIPPED = {p.name: p.read_bytes() for p in sorted((ROOT / "scenarios").glob("*.toml"))
            if b"scenario = " not in p.read_bytes()}  # (not the sweep file)

@@ -206,7 +206,7 @@ def _preset_names() -> tuple[str, ...]:
     return tuple(gear_presets())
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _read_preset(name: str) -> dict:
     # read once per process: a train of 200 preset gears validates each coupler
     return tomllib.loads(_gear_dir().joinpath(f"{name}.toml").read_text(encoding="utf-8"))

@@ -359,7 +359,7 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     # a file without cases runs as it is under the default base case; any other name
     # must be one of its cases
     if case not in base.cases and (base.cases or case != STUDY_CASE):
-        avail = ", ".join(base.cases) or f"none (the file has no [cases.*]; leave --case out)"
+        avail = ", ".join(base.cases) or "none (the file has no [cases.*]; leave --case out)"
         raise ScenarioError(str(scenario_path), [("--case", f"unknown case {case!r}; "
                                                             f"available: {avail}")])
     # the overrides apply after the case's own keys, as in a sweep

@@ -138,6 +138,9 @@ def _values(source, key, v):
 
 
 def _monte_carlo(source, mc: dict) -> list[dict]:
+    if not isinstance(mc, dict):
+        raise ScenarioError(source, [("monte_carlo", "must be a table: [monte_carlo] with "
+                                                     "samples, seed and parameters")])
     allowed = {"samples", "seed", "parameters"}
     bad = sorted(set(mc) - allowed)
     if bad:
