@@ -631,3 +631,13 @@ def test_a_scenario_file_with_mutated_text_loads_or_is_refused_cleanly(tmp_path_
     p = tmp_path_factory.mktemp("mutated") / name
     p.write_bytes(raw)
     _clean_or_valid(lambda: ltdsim.load_scenario(p), str(p))
+
+
+def test_a_fast_first_order_lag_sets_the_limit_and_is_named():
+    tau = 1.0e-4  # s, a traction lag far faster than the train's oscillations
+    sc = ltdsim.load_scenario(SHORT).with_overrides({"traction.time_constant": tau})
+    lim = step_limit(sc)
+    assert lim.limit == pytest.approx(real_radius("ode3") * tau, rel=1e-12)
+    with pytest.raises(ScenarioError) as info:
+        sc.with_overrides({"solver.dt": 5e-4, "driver.pid.ts": 5e-4})
+    assert "solver.dt" in str(info.value) and "traction.time_constant = 0.0001 s" in str(info.value)

@@ -175,7 +175,7 @@ class StepLimit:
     omega: float  #: highest natural frequency of the stiffened train, rad/s
     zeta: float  #: its damping ratio (lower bound), -
     k_max: float  #: stiffest coupling, N/m
-    lag: tuple[str, float] | None  #: the fastest first-order lag (what, tau s), if any
+    lag: tuple[str, float] | None  #: the fastest first-order lag (its key, tau s), if any
     others: dict  #: the largest stable step of every fixed-step method, s
 
     @property
@@ -192,7 +192,7 @@ class StepLimit:
             what, tau = self.lag
             lag_limit = real_radius(self.method) * tau
             if lag_limit <= mode_step_limit(self.method, self.omega, self.zeta):
-                return f"the {what} time constant, {tau:.3g} s"
+                return f"the first-order lag {what} = {tau:.3g} s"
         return osc
 
     def alternatives(self) -> str:
@@ -216,16 +216,17 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
         ks.append(stiffest(c))
         cs.append(c.damping)
         if c.model in ("friction_wedge", "table") and c.tracking_time is not None:
-            lags.append((f"coupler {j + 1} gear tracking (tracking_time)", c.tracking_time))
+            lags.append((f"tracking_time of coupler {j + 1}", c.tracking_time))
     if any(v.brake is not None for v in scenario.vehicles):
         b = scenario.brake
-        lags.append(("brake cylinder (brake.apply_time_constant)", b.apply_time_constant))
-        lags.append(("brake cylinder (brake.release_time_constant)", b.release_time_constant))
+        lags.append(("brake.apply_time_constant", b.apply_time_constant))
+        lags.append(("brake.release_time_constant", b.release_time_constant))
     for k, loco in enumerate(scenario.consists()):
-        tau = loco.time_constant if loco.time_constant is not None else \
-            scenario.traction.time_constant
+        own = scenario.locomotives and loco.time_constant is not None
+        tau = loco.time_constant if own else scenario.traction.time_constant
         if tau > 0.0:
-            lags.append((f"traction lag of {loco.name!r} (time_constant)", tau))
+            lags.append((f"locomotives.{k}.time_constant" if own else "traction.time_constant",
+                         tau))
     omega, zeta = highest_mode(masses, ks, cs)
     lag = min(lags, key=lambda t: t[1]) if lags else None
 
@@ -247,8 +248,9 @@ def refusal(lim: StepLimit) -> str:
                 f"oscillation at {lim.reason()} grow at any step")
     else:
         head = (f"{lim.dt:g} s is above the largest stable step of {lim.method} for this "
-                f"train, {lim.limit:.3g} s, set by {lim.reason()}")
-    return (f"solver.dt: {head}; the run would diverge. Set solver.dt to at most "
+                f"train, {lim.limit:.3g} s, set by {lim.reason()}: at this step that mode "
+                "grows from step to step")
+    return (f"solver.dt: {head}, so the results drift or blow up. Set solver.dt to at most "
             f"{lim.limit:.3g} s or use {lim.alternatives()} (or solver.stability_check = "
             "false to run it anyway)")
 
