@@ -109,7 +109,7 @@ def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
     sc = load_scenario(file, case=case)
     if overrides:
         sc = sc.with_overrides(parse_set(overrides), source="--set")
-    return (_simulate(sc, quiet) if run else None), sc
+    return (_simulate(sc, quiet, file) if run else None), sc
 
 
 def _label(sc) -> str:
@@ -117,12 +117,14 @@ def _label(sc) -> str:
     return sc.name + (f" [{sc.case}]" if sc.case else "")
 
 
-def _simulate(sc, quiet: bool = False):
-    """Simulate ``sc``: compile or load its kernel first ("compiling (first run only)"),
-    then a progress bar of simulated seconds on stderr (plain lines in a log)."""
-    from ltdsim.simulate import simulate
+def _simulate(sc, quiet: bool = False, source=None):
+    """Simulate ``sc``: refuse a recording too large for the memory available (naming
+    ``source``, the scenario file), compile or load its kernel ("compiling (first run
+    only)"), then a progress bar of simulated seconds on stderr (plain lines in a log)."""
+    from ltdsim.simulate import check_memory, simulate
     from ltdsim.warmup import scenario_kernels, warm_up
 
+    check_memory(sc, source=None if source is None else str(source))
     with Display(err_console, quiet=quiet) as show:
         warm_up(scenario_kernels([sc]), show.compiling)
         update = show.bar(f"simulating {_label(sc)}", sc.solver.n_steps * sc.solver.dt,
@@ -242,7 +244,7 @@ def run(
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
         label = _label(sc)  # plain text: _table keeps it so
-        ds = _simulate(sc, quiet)
+        ds = _simulate(sc, quiet, file)
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
