@@ -92,14 +92,8 @@ def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
         if overrides:
             raise ScenarioError("--set", [("", f"{file} is a saved result, not simulated "
                                                "again; give the scenario file to change it")])
-        try:
-            ds = load_result(file)
-            saved = json.loads(ds.attrs["scenario_json"])
-        except FileNotFoundError:
-            raise ScenarioError(str(file), [("", "file not found")]) from None
-        except (OSError, ValueError, KeyError) as exc:
-            raise ScenarioError(str(file), [("", "not a result written by ltdsim (netCDF with "
-                                                 f"its scenario): {exc}")]) from None
+        ds = load_result(file)  # (a ScenarioError in one line on a bad file)
+        saved = json.loads(ds.attrs["scenario_json"])
         held = ds.attrs.get("case") or None
         if case is not None and case != held:
             raise ScenarioError("--case", [("", f"{file} is a saved result of case "
@@ -584,9 +578,13 @@ def sweep(
         return
     try:
         _check_folder(output)
-        spec = sw.load_sweep(file)
-        if set_:
-            spec = sw.with_overrides(spec, parse_set(set_))
+        with Display(err_console) as show:
+            checking = _counter(show, "checking the cases")
+            spec = sw.load_sweep(file, progress=checking)
+            if set_:
+                spec = sw.with_overrides(spec, parse_set(set_), progress=checking)
+        if not scheduler:  # (a cluster's workers check their own memory)
+            sw.check_sweep_memory(spec, str(file), workers)
     except ScenarioError as exc:
         _fail(exc)
         return
@@ -634,6 +632,17 @@ def sweep(
         console.print(f"[yellow]{len(failed)} case(s) did not finish; see "
                       f"{escape(str(output))}/cases[/]")
     _say(f"summary written to {output / 'summary.csv'}")
+
+
+def _counter(show: Display, description: str):
+    """``progress(done, total)`` that starts a bar of ``show`` at its first call."""
+    bar = {}
+
+    def progress(done: int, total: int) -> None:
+        if "update" not in bar:
+            bar["update"] = show.bar(description, total, "cases")
+        bar["update"](done)
+    return progress
 
 
 def _phases_or_fail(ds, sc):
