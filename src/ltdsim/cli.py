@@ -160,8 +160,9 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def _check_output(path: Optional[Path], option: str, suffixes, inputs=()) -> None:
-    """Refuse, before any work, an output file that is one of the ``inputs`` or whose
-    suffix is not one of ``suffixes`` (what ltdsim writes under that option)."""
+    """Refuse, before any work, an output file that is one of the ``inputs``, an existing
+    folder, a file whose suffix is not one of ``suffixes`` (what ltdsim writes under that
+    option), or a file in a folder ltdsim cannot write into (or make)."""
     if path is None:
         return
     for given in inputs:
@@ -169,20 +170,45 @@ def _check_output(path: Optional[Path], option: str, suffixes, inputs=()) -> Non
             raise ScenarioError(option, [("", f"{path} is an input of this command; ltdsim "
                                               "never writes over its input: choose another "
                                               "path")])
+    if path.is_dir():
+        raise ScenarioError(option, [("", f"{path} is a folder; give a file name")])
     if path.suffix.lower() not in suffixes:
         what = f"suffix {path.suffix!r}" if path.suffix else "a file name without a suffix"
         kinds = {".nc": ".nc (netCDF-4)"}
         raise ScenarioError(option, [("", f"cannot write {what} ({path}); accepted: "
                                           f"{', '.join(kinds.get(x, x) for x in suffixes)}")])
-    if path.is_dir():
-        raise ScenarioError(option, [("", f"{path} is a folder; give a file name")])
+    _check_writable(path.parent, option)
 
 
 def _check_folder(path: Path, option: str = "--output") -> None:
-    """Refuse, before any work, an output folder that exists as a file."""
+    """Refuse, before any work, an output folder that exists as a file or that cannot be
+    written (or made)."""
     if path.exists() and not path.is_dir():
         raise ScenarioError(option, [("", f"{path} is a file, not a folder; give a folder "
                                           "for the tables and figures")])
+    _check_writable(path, option)
+
+
+def _check_writable(folder: Path, option: str) -> None:
+    """Refuse, before any work, a ``folder`` ltdsim could not write into: create and
+    remove a file in it (or, when it does not exist yet, in the nearest folder above it
+    that does, where it would be made)."""
+    import tempfile
+
+    there = Path(os.path.abspath(folder))
+    while not there.exists() and there != there.parent:
+        there = there.parent
+    if not there.is_dir():
+        raise ScenarioError(option, [("", f"cannot make the folder {folder}: {there} is a "
+                                          "file; choose another path")])
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".ltdsim-write-test-", dir=there)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise ScenarioError(option, [("", f"cannot write in {there} "
+                                          f"({exc.strerror or type(exc).__name__}); choose a "
+                                          "folder you can write to")]) from None
 
 
 def _csv(frame, path: Path, index: bool = False) -> None:
@@ -233,7 +259,7 @@ def run(
     try:
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
         if plot is not None:  # (matplotlib only when a figure is asked for)
-            _check_output(plot, "--plot", image_suffixes(), inputs=(file, output))
+            _check_output(plot, "--plot", image_suffixes(), inputs=(file,))
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
@@ -899,6 +925,7 @@ def study(
     from ltdsim.study import run_study
 
     try:
+        _check_folder(output)
         overrides = parse_set(set_) if set_ else None
         with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
