@@ -446,6 +446,18 @@ def test_an_output_under_a_file_is_refused_before_the_work(tmp_path, no_run,
     assert blocker.read_text() == "not a folder"
 
 
+@pytest.mark.parametrize("args, inside", [
+    (("sweep", "{p}", "-o", "{d}"), "cases"), (("sweep", "{p}", "-o", "{d}"), "figures"),
+    (("study", "{p}", "-o", "{d}", "--force"), "cache"),
+    (("study", "{p}", "-o", "{d}", "--force"), "sweep")])
+def test_a_file_where_a_sweep_or_study_makes_a_folder_is_refused(tmp_path, no_run, args,
+                                                                inside):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / inside).write_text("not a folder")
+    refused(_fill(args, p=PAPER_TOML, d=out), "--output", str(out / inside), "is a file")
+
+
 def test_probing_a_writable_folder_leaves_nothing_behind(tmp_path, no_run):
     out = tmp_path / "out"
     out.mkdir()

@@ -603,7 +603,8 @@ def sweep(
         _fail(ScenarioError("--best-by", [("best-by", f"one of {', '.join(sw.CRITERIA)}")]))
         return
     try:
-        _check_folder(output)
+        for folder in (output, output / "cases") + ((output / "figures",) if figures else ()):
+            _check_folder(folder)
         with Display(err_console) as show:
             checking = _counter(show, "checking the cases")
             spec = sw.load_sweep(file, progress=checking)
@@ -925,7 +926,8 @@ def study(
     from ltdsim.study import run_study
 
     try:
-        _check_folder(output)
+        for folder in (output, output / "cache", output / "sweep", output / "sweep" / "cases"):
+            _check_folder(folder)
         overrides = parse_set(set_) if set_ else None
         with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
