@@ -529,3 +529,12 @@ def test_analysis_commands_name_what_is_wrong_with_a_bad_result_file(tmp_path, r
     for kind, path in made.items():
         refused([command, path, "-o", tmp_path / "out"], str(path), RESULT_WORDS[kind])
     assert not (tmp_path / "out").exists()
+
+
+def test_a_write_that_fails_after_the_run_is_one_line_exit_3(tmp_path, monkeypatch):
+    # the output folder passed the check, then the disk filled up while the train ran
+    def disk_full(ds, path):
+        raise OSError(28, "No space left on device", str(path))
+    monkeypatch.setattr(sys.modules["ltdsim.io"], "save_result", disk_full)
+    path = write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 0.5"))
+    refused(["run", path, "-q", "-o", tmp_path / "r.nc"], "r.nc", "No space left", code=3)

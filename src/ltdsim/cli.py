@@ -297,14 +297,20 @@ def run(
     warning = travel_warning(ds, sc)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}")
-    if output is not None:
-        save_result(ds, output)
-        _say(f"result written to {output}")
-    if plot is not None:
-        from ltdsim.plotting import save_overview
+    try:  # (checked before the run; a disk that fills up meanwhile still fails here)
+        if output is not None:
+            save_result(ds, output)
+            _say(f"result written to {output}")
+        if plot is not None:
+            from ltdsim.plotting import save_overview
 
-        save_overview(ds, plot)
-        _say(f"figure written to {plot}")
+            save_overview(ds, plot)
+            _say(f"figure written to {plot}")
+    except OSError as exc:
+        err_console.print(f"[bold red]error (writing failed):[/] "
+                          f"{escape(str(exc.filename or output or plot))}: "
+                          f"{escape(exc.strerror or str(exc))}", highlight=False, soft_wrap=True)
+        raise typer.Exit(3) from None
 
 
 def _speed(v: float, digits: int = 1) -> str:
