@@ -168,7 +168,7 @@ RUNNER = CliRunner()
 SHORT = ROOT / "scenarios" / "short-train.toml"
 
 
-def refused(*args, code=2) -> str:
+def cli_refused(*args, code=2) -> str:
     """Run the CLI in-process; assert it refused cleanly (exit code, one error line, no
     traceback) and return the error text."""
     res = RUNNER.invoke(app, [str(a) for a in args])
@@ -189,17 +189,17 @@ def refused(*args, code=2) -> str:
 def test_a_file_that_is_not_utf8_text_is_named_with_the_place(tmp_path, name, content, words):
     p = tmp_path / name
     p.write_bytes(content)
-    msg = refused("run", p, "-q")
+    msg = cli_refused("run", p, "-q")
     assert name in msg and words in msg and "UTF-8" in msg
 
 
 def test_a_folder_a_missing_file_and_an_unreadable_file_are_named(tmp_path, monkeypatch):
     (tmp_path / "x.toml").mkdir()
-    msg = refused("run", tmp_path / "x.toml", "-q")
+    msg = cli_refused("run", tmp_path / "x.toml", "-q")
     assert "x.toml" in msg and "is a folder" in msg
-    msg = refused("sweep", tmp_path / "x.toml", "-o", tmp_path / "out")
+    msg = cli_refused("sweep", tmp_path / "x.toml", "-o", tmp_path / "out")
     assert "x.toml" in msg and "is a folder" in msg
-    msg = refused("run", tmp_path / "gone.toml", "-q")
+    msg = cli_refused("run", tmp_path / "gone.toml", "-q")
     assert "gone.toml" in msg and "file not found" in msg
     # permission denied (the tests may run as root, who reads any file: simulate it)
     p = tmp_path / "locked.toml"
@@ -209,7 +209,7 @@ def test_a_folder_a_missing_file_and_an_unreadable_file_are_named(tmp_path, monk
         raise PermissionError(13, "Permission denied", str(self))
 
     monkeypatch.setattr(Path, "read_bytes", denied)
-    msg = refused("run", p, "-q")
+    msg = cli_refused("run", p, "-q")
     assert "locked.toml" in msg and "permission denied" in msg
 
 
@@ -228,7 +228,7 @@ def test_a_folder_a_missing_file_and_an_unreadable_file_are_named(tmp_path, monk
 ])
 def test_a_value_of_the_wrong_toml_type_is_refused_naming_its_key(tmp_path, old, new, key, kind):
     assert old in EXAMPLE
-    msg = refused("run", write(tmp_path, EXAMPLE.replace(old, new, 1)), "-q")
+    msg = cli_refused("run", write(tmp_path, EXAMPLE.replace(old, new, 1)), "-q")
     assert f"bad.toml: {key}: {kind}" in msg, msg
     assert msg.count("bad.toml") == 1  # the key itself, not a knock-on error elsewhere
 
@@ -245,7 +245,7 @@ def test_an_integer_is_a_number_and_the_scenario_runs_the_same(tmp_path):
     ("vehicles.1.mass=true", "vehicles.1.mass", "must be a number"),
 ])
 def test_set_overrides_follow_the_same_types(item, key, kind):
-    msg = refused("run", SHORT, "-q", "--set", item)
+    msg = cli_refused("run", SHORT, "-q", "--set", item)
     assert f"--set: {key}: {kind}" in msg, msg
 
 
@@ -254,13 +254,13 @@ def test_case_and_sweep_tables_follow_the_same_types(tmp_path):
     assert "[cases.flag]" in msg and "vehicles.0.powered" in msg and "true or false" in msg
     sweep = tmp_path / "s.toml"
     sweep.write_text(f'scenario = "{SHORT}"\n[grid]\n"solver.dt" = [1e-4, "2e-4"]\n')
-    msg = refused("sweep", sweep, "-o", tmp_path / "out")
+    msg = cli_refused("sweep", sweep, "-o", tmp_path / "out")
     assert "s.toml" in msg and "solver.dt" in msg and "must be a number" in msg
 
 
 def test_a_case_problem_keeps_its_brackets_on_the_command_line(tmp_path):
     bad = write(tmp_path, EXAMPLE + '\n[cases.flag]\n"vehicles.0.powered" = "no"\n')
-    msg = refused("run", bad, "-q")
+    msg = cli_refused("run", bad, "-q")
     assert "bad.toml [cases.flag]: vehicles.0.powered: must be true or false" in msg, msg
 
 
@@ -272,15 +272,6 @@ def test_odd_keys_are_shown_escaped_in_one_line(tmp_path):
     assert "unknown key 'odd\\x1e'" in msg and len(msg.splitlines()) == 1
     msg = load_error(tmp_path, EXAMPLE + '\n[cases.x]\n"[" = 1\n')
     assert "[cases.x]: [: unknown key '['" in msg
-
-
-def test_study_refuses_an_unknown_case_listing_the_cases(tmp_path):
-    msg = refused("study", ROOT / "scenarios" / "paper.toml", "--case", "NOPE",
-                  "-o", tmp_path / "r")
-    assert "--case" in msg and "NOPE" in msg and "LHHL" in msg
-    assert not (tmp_path / "r").exists()  # refused before any work
-    msg = refused("study", SHORT, "--case", "NOPE", "-o", tmp_path / "r")
-    assert "--case" in msg and "NOPE" in msg and "no [cases.*]" in msg
 
 
 TABLE_GEAR = """
@@ -308,7 +299,7 @@ def test_a_falling_loading_curve_is_refused_naming_the_key_and_the_place(tmp_pat
         "[[0.0, 5e4], [0.05, 1.6e6], [0.08, 1.6e6]]")))  # level is allowed (non-decreasing)
     assert flat.coupler(0).loading[-1][1] == 1.6e6
     text = _with_table_gear("[[0.0, 5e4], [0.05, 2.4e6], [0.08, 1.7e6]]")
-    msg = refused("run", write(tmp_path, text), "-q")
+    msg = cli_refused("run", write(tmp_path, text), "-q")
     assert "couplers.default: loading: the force must not decrease" in msg, msg
     assert "from 2.4e+06 N at 0.05 m to 1.7e+06 N at 0.08 m" in msg
 
@@ -349,7 +340,7 @@ def test_a_bad_option_is_named_with_its_range_before_any_work(tmp_path, args, op
     extra = [] if args[0] == "gear" else ["-o", out]
     if args[:2] in (["gear", "loop"], ["gear", "ratings"]) or args[0] == "reduce":
         extra = ["--plot", tmp_path / "fig.png"]
-    msg = refused(*args, *extra)
+    msg = cli_refused(*args, *extra)
     assert f"error (invalid input): {option}: " in msg and words in msg, msg
     assert not out.exists() and not (tmp_path / "fig.png").exists()
 
@@ -362,7 +353,7 @@ def test_an_unreachable_scheduler_is_refused_within_seconds(tmp_path):
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     t0 = time.perf_counter()
-    msg = refused("sweep", PAPER_TOML, "--scheduler", f"tcp://127.0.0.1:{port}",
+    msg = cli_refused("sweep", PAPER_TOML, "--scheduler", f"tcp://127.0.0.1:{port}",
                   "-o", tmp_path / "out")
     assert time.perf_counter() - t0 < 30.0  # loading the 16 cases, then a 3 s connect
     assert "--scheduler" in msg and f"tcp://127.0.0.1:{port}" in msg and "cannot reach" in msg
@@ -388,7 +379,7 @@ def test_a_listener_that_is_not_a_dask_scheduler_is_refused(tmp_path):
 
     threading.Thread(target=talk, daemon=True).start()
     try:
-        msg = refused("sweep", PAPER_TOML, "--scheduler",
+        msg = cli_refused("sweep", PAPER_TOML, "--scheduler",
                       f"tcp://127.0.0.1:{srv.getsockname()[1]}", "-o", tmp_path / "out")
     finally:
         srv.close()
@@ -413,7 +404,7 @@ def test_monte_carlo_parameters_are_checked(tmp_path, param, key, words):
     p = tmp_path / "mc.toml"
     p.write_text(f'scenario = "{SHORT}"\n[monte_carlo]\nsamples = 3\nseed = 1\n'
                  f'[monte_carlo.parameters]\n"vehicles.1.mass" = {param}\n')
-    msg = refused("sweep", p, "-o", tmp_path / "out")
+    msg = cli_refused("sweep", p, "-o", tmp_path / "out")
     assert "mc.toml" in msg and f"monte_carlo.{key}" in msg and words in msg, msg
 
 
@@ -426,7 +417,7 @@ def test_monte_carlo_samples_and_seed_are_whole_numbers(tmp_path, line, key):
     p.write_text(f'scenario = "{SHORT}"\n[monte_carlo]\n{body["samples"]}\n{body["seed"]}\n'
                  '[monte_carlo.parameters]\n"vehicles.1.mass" = { dist = "normal", '
                  'mean = 9e4, std = 1e3 }\n')
-    msg = refused("sweep", p, "-o", tmp_path / "out")
+    msg = cli_refused("sweep", p, "-o", tmp_path / "out")
     assert f"monte_carlo.{key}" in msg
 
 
@@ -506,7 +497,7 @@ def test_a_two_mass_train_diverges_just_above_the_limit_and_not_below(method, da
 
 def test_the_issues_euler_run_is_refused_naming_the_key_and_the_largest_stable_step():
     lim = step_limit(ltdsim.load_scenario(SHORT).with_overrides({"solver.method": "euler"}))
-    msg = refused("run", SHORT, "-q", "--set", "solver.method=euler", "--set", "solver.dt=0.01",
+    msg = cli_refused("run", SHORT, "-q", "--set", "solver.method=euler", "--set", "solver.dt=0.01",
                   "--set", "solver.output_interval=0.01", "--set", "driver.pid.ts=0.01")
     assert "--set: solver.dt: 0.01 s is above the largest stable step of euler" in msg
     assert f"{lim.limit:.3g} s" in msg and "ode3 (up to" in msg and "bs23" in msg
@@ -641,3 +632,387 @@ def test_a_fast_first_order_lag_sets_the_limit_and_is_named():
     with pytest.raises(ScenarioError) as info:
         sc.with_overrides({"solver.dt": 5e-4, "driver.pid.ts": 5e-4})
     assert "solver.dt" in str(info.value) and "traction.time_constant = 0.0001 s" in str(info.value)
+
+
+# -- issue 13: outputs, memory, result files
+import itertools  # noqa: E402
+import os  # noqa: E402
+import tempfile  # noqa: E402
+import tracemalloc  # noqa: E402
+
+import xarray as xr  # noqa: E402
+from typer.testing import CliRunner  # noqa: E402
+
+from ltdsim import study  # noqa: E402
+from ltdsim import sweep as sw  # noqa: E402
+from ltdsim.cli import app  # noqa: E402
+
+SHORT = ROOT / "scenarios" / "short-train.toml"
+PAPER_TOML = ROOT / "scenarios" / "paper.toml"
+SIM = sys.modules["ltdsim.simulate"]
+
+
+def cli(*args):
+    """Run the CLI in this process: (exit code, stderr, everything printed)."""
+    res = CliRunner().invoke(app, [str(a) for a in args])
+    return res.exit_code, res.stderr, res.output + res.stderr
+
+
+def refused(args, *names, code=2):
+    """The command exits with ``code``, prints one error line without a traceback and
+    names each of ``names``; returns that line."""
+    rc, err, everything = cli(*args)
+    assert rc == code, (args, everything)
+    assert "Traceback" not in everything
+    line = err.strip()
+    assert len(line.splitlines()) == 1, line
+    for name in names:
+        assert name in line, (name, line)
+    return line
+
+
+@pytest.fixture
+def no_run(monkeypatch):
+    """Any simulation, study or sweep that starts fails the test: a refusal must come
+    before the work."""
+    def refuse(*a, **k):
+        raise AssertionError("the work started although the input was refused")
+    monkeypatch.setattr(SIM, "simulate", refuse)
+    monkeypatch.setattr(sw, "run_sweep", refuse)
+    monkeypatch.setattr(study, "_warm_up", refuse)  # a study's first work
+
+
+@pytest.fixture
+def unwritable(tmp_path):
+    """A folder nobody may create files in: a read-only folder, or /sys when the tests
+    run as root (who writes through permission bits)."""
+    folder = tmp_path / "read-only"
+    folder.mkdir()
+    folder.chmod(0o555)
+    candidates = [folder, Path("/sys")]
+    for c in candidates:
+        try:
+            fd, probe = tempfile.mkstemp(dir=c)
+        except OSError:
+            yield c
+            break
+        os.close(fd)
+        os.unlink(probe)
+    else:
+        pytest.skip("no folder here refuses to be written")
+    folder.chmod(0o755)
+
+
+# ---------------------------------------------------------------- memory (point 4)
+def test_the_memory_estimate_matches_what_a_run_allocates():
+    # the recording of 100,001 samples of the short train, measured by tracemalloc
+    sc = ltdsim.load_scenario(SHORT).with_overrides(
+        {"solver.t_end": 10.0, "solver.output_interval": 1e-4})
+    ltdsim.simulate(sc.with_overrides({"solver.t_end": 0.01}))  # kernel loaded first
+    tracemalloc.start()
+    try:
+        ds = ltdsim.simulate(sc)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    est = SIM.recording_bytes(sc)
+    assert ds.sizes["time"] == 100_001
+    assert ds.nbytes < est  # the result is part of what was estimated
+    assert 0.85 < est / peak < 1.15, (est, peak)
+
+
+def test_a_run_over_the_memory_share_is_refused_and_one_under_it_runs(monkeypatch):
+    sc = build(train_dict([1e5, 1e5], t_end=1.0, dt=1e-3))
+    need = SIM.recording_bytes(sc)
+    monkeypatch.setattr(SIM, "available_memory", lambda: int(need / SIM.MEMORY_SHARE * 0.99))
+    with pytest.raises(ScenarioError) as info:
+        ltdsim.simulate(sc)
+    msg = str(info.value)
+    assert "solver.output_interval" in msg and "solver.t_end" in msg and "GB" in msg
+    monkeypatch.setattr(SIM, "available_memory", lambda: int(need / SIM.MEMORY_SHARE * 1.01))
+    assert ltdsim.simulate(sc).sizes["time"] == 1001
+
+
+@pytest.mark.parametrize("method", ["ode3", "bs23"])
+def test_t_end_1e7_is_refused_before_anything_is_allocated(tmp_path, method):
+    # a fixed-step and an adaptive run of ten million seconds, recorded every 1 ms
+    assert 'method = "ode3"' in EXAMPLE
+    path = write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 1e7").replace(
+        'method = "ode3"', f'method = "{method}"'))
+    sc = ltdsim.load_scenario(path)
+    assert sc.solver.method == method and sc.solver.adaptive == (method == "bs23")
+    tracemalloc.start()
+    try:
+        line = refused(["run", path, "-q"], "bad.toml", "solver.output_interval",
+                       "solver.t_end", "GB")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 100e6  # refused before the recording (thousands of GB) was asked for
+    samples = int(1e7 / sc.solver.output_interval) + 1
+    assert f"{samples:,} samples" in line
+    gb = float(line.split("about ")[1].split(" GB")[0].replace(",", ""))
+    assert gb * 1e9 == pytest.approx(SIM.recording_bytes(sc), rel=0.01)
+
+
+def test_a_memory_error_while_allocating_is_one_line_failure(monkeypatch):
+    def no_memory(low, n):
+        raise MemoryError
+    monkeypatch.setattr(SIM, "_buffers", no_memory)
+    with pytest.raises(SimulationError, match="solver.output_interval"):
+        SIM._integrate(SIM.lower(build(train_dict([1e5, 1e5], t_end=1.0))),
+                       build(train_dict([1e5, 1e5], t_end=1.0)), None, 10)
+
+
+def test_a_sweep_whose_cases_at_once_exceed_the_memory_is_refused_before_running(
+        tmp_path, no_run):
+    p = tmp_path / "mem.toml"
+    p.write_text(f'scenario = "{SHORT}"\n[list]\n"solver.t_end" = [1.0, 2e5, 2.0]\n'
+                 '"solver.output_interval" = [1e-4, 1e-4, 1e-4]\n')
+    spec = sw.load_sweep(p)
+    assert spec.largest[1] == "l0001"  # the longest case needs the most memory
+    refused(["sweep", p, "-o", tmp_path / "out", "--workers", "2"], "mem.toml case l0001",
+            "solver.t_end", "2 runs at once")
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_grid_of_a_million_cases_is_refused_with_its_count_before_any_case_is_made(
+        tmp_path, no_run):
+    values = ", ".join(f"{1e6 + i:.1f}" for i in range(100))
+    p = tmp_path / "big.toml"
+    p.write_text(f'scenario = "{SHORT}"\n[grid]\n' + "".join(
+        f'"couplers.default.{k}" = [{values}]\n' for k in ("k1", "k2", "k3")))
+    tracemalloc.start()
+    try:
+        line = refused(["sweep", p, "-o", tmp_path / "out"], "big.toml", "grid",
+                       "1,000,000 cases", "100 x 100 x 100", f"{sw.MAX_CASES:,}")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 50e6, peak
+    assert "[monte_carlo]" in line
+
+
+def test_a_lazy_grid_holds_the_full_factorial_in_product_order(tmp_path):
+    p = tmp_path / "grid.toml"
+    p.write_text(f'scenario = "{SHORT}"\n[overrides]\n"solver.t_end" = 2.0\n[grid]\n'
+                 '"couplers.default.k3" = [3.0e6, 6.0e6, 9.0e6]\n'
+                 'couplers.default.damping = [1000.0, 3000.0]\n'  # unquoted: dotted key
+                 '"vehicles.1.mass" = [8.0e4, 9.0e4]\n')
+    spec = sw.load_sweep(p)
+    keys = ["couplers.default.k3", "couplers.default.damping", "vehicles.1.mass"]
+    want = [{"solver.t_end": 2.0, **dict(zip(keys, c))}
+            for c in itertools.product([3e6, 6e6, 9e6], [1e3, 3e3], [8e4, 9e4])]
+    assert len(spec.cases) == 12 and [c.overrides for c in spec.cases] == want
+    assert spec.cases[-1].id == "g0011" and spec.cases[5].overrides == want[5]
+    sc = spec.scenario(spec.cases[7])
+    assert sc.couplers.default.damping == want[7]["couplers.default.damping"]
+    assert sc.vehicles[1].mass == want[7]["vehicles.1.mass"]
+
+
+# ----------------------------------------------------------- sweep files (point 9)
+@pytest.mark.parametrize("body, words", [
+    ('[grid]\n"solver.dt" = [1e-4]\n[list]\n"solver.dt" = [1e-4]\n',
+     ["give exactly one of [grid], [list] or [monte_carlo]", "found [grid], [list]"]),
+    ("", ["give exactly one of [grid], [list] or [monte_carlo]", "found none"]),
+    ("grid = 5\n", ["grid: expected a table [grid]"]),
+    ('overrides = 5\n[grid]\n"solver.dt" = [1e-4]\n', ["overrides: expected a table"]),
+    ("[grid]\n", ["grid: no keys to vary"]),
+    ('[grid]\n"solver.t_end" = 2.0\n', ["grid.solver.t_end", "non-empty list"]),
+    ('[list]\n"solver.t_end" = [1.0]\n"solver.dt" = [1e-4, 2e-4]\n', ["list:", "one length"]),
+    ('[monte_carlo]\nsamples = 2\nseed = "x"\n[monte_carlo.parameters]\n'
+     '"solver.t_end" = {dist = "uniform", low = 1.0, high = 2.0}\n', ["monte_carlo.seed"]),
+    ('[monte_carlo]\nsamples = 2\nseed = 1\n[monte_carlo.parameters]\n'
+     '"solver.t_end" = {dist = "uniform", low = "a", high = 2.0}\n',
+     ["monte_carlo.parameters.solver.t_end.low", "number"]),
+    ("[monte_carlo]\nsamples = 2\nseed = 1\nparameters = 5\n", ["monte_carlo.parameters"]),
+    ('[grid]\n"solver.dt" = [1e-4, 3e-4]\n', ["case g0001", "solver", "whole multiple"]),
+], ids=["both", "neither", "grid-number", "overrides-number", "grid-empty", "grid-scalar",
+        "list-lengths", "seed-string", "low-string", "parameters-number", "case-invalid"])
+def test_bad_sweep_files_are_refused_in_one_line_naming_the_key(tmp_path, no_run, body,
+                                                                 words):
+    p = tmp_path / "sw.toml"
+    p.write_text(f'scenario = "{SHORT}"\n' + body)
+    line = refused(["sweep", p, "-o", tmp_path / "out"], "sw.toml", *words)
+    assert ": :" not in line
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda p: p.write_text('scenario = 5\n[grid]\n"solver.dt" = [1e-4]\n'),
+     ["scenario", "expected a string"]),
+    (lambda p: p.write_text(f'scenario = "{p.name}"\n[grid]\n"solver.dt" = [1e-4]\n'),
+     ["scenario", "names this sweep file"]),
+    (lambda p: p.write_bytes(b"scenario = \"\xff\xfe\"\n"), ["not UTF-8"]),
+    (lambda p: p.mkdir(), ["is a folder"]),
+], ids=["scenario-number", "itself", "not-utf8", "folder"])
+def test_unreadable_sweep_files_are_named(tmp_path, no_run, make, words):
+    p = tmp_path / "sw.toml"
+    make(p)
+    refused(["sweep", p, "-o", tmp_path / "out"], "sw.toml", *words)
+
+
+def test_study_refuses_an_unknown_case_or_a_file_without_cases_before_writing(
+        tmp_path, no_run):
+    out = tmp_path / "report"
+    refused(["study", PAPER_TOML, "--case", "NOPE", "-o", out], "--case", "NOPE", "LHHL")
+    refused(["study", SHORT, "-o", out], "short-train.toml", "cases")
+    assert not out.exists()
+
+
+# -------------------------------------------------------------- outputs (point 5)
+OUTPUT_COMMANDS = [
+    ("run", "{s}", "-o", "{d}/x.nc", "-q"),
+    ("run", "{s}", "--plot", "{d}/x.png", "-q"),
+    ("gear", "loop", "--preset", "friction-wedge-low", "--plot", "{d}/x.png"),
+    ("gear", "impact", "--preset", "friction-wedge-low", "--csv", "{d}/x.csv"),
+    ("gear", "ratings", "--travel", "0.083", "--force", "2.27e6", "--capacity", "5e4",
+     "--absorptivity", "0.8", "--toml", "{d}/x.toml"),
+    ("reduce", "--preset", "friction-wedge-low", "--plot", "{d}/x.png"),
+    ("reduce", "--preset", "friction-wedge-low", "--toml", "{d}/x.toml"),
+    ("sweep", "{p}", "-o", "{d}/sweep"),
+    ("phases", "{s}", "-o", "{d}/phases", "-q"),
+    ("modal", "{s}", "-o", "{d}/modal"),
+    ("spectrum", "{s}", "-o", "{d}/spectra", "-q"),
+    ("sysid", "{s}", "-o", "{d}/sysid", "-q"),
+    ("study", "{p}", "-o", "{d}/report"),
+]
+
+
+def _option(args) -> str:
+    for a in args:
+        if a.startswith("{d}"):
+            break
+        opt = a
+    return {"-o": "--output"}.get(opt, opt)
+
+
+def _fill(args, **kw):
+    return [a.format(**kw) for a in args]
+
+
+def _id(args) -> str:
+    words = [a for a in args[:2] if not a.startswith(("{", "-"))]
+    return " ".join(words + [_option(args)])
+
+
+@pytest.fixture
+def reduce_refused(monkeypatch):
+    import ltdsim.reduce
+
+    def refuse(*a, **k):
+        raise AssertionError("the fit started although its output was refused")
+    monkeypatch.setattr(ltdsim.reduce, "reduce_gear", refuse)
+
+
+@pytest.mark.parametrize("args", OUTPUT_COMMANDS, ids=_id)
+def test_an_output_in_a_folder_that_cannot_be_written_is_refused_before_the_work(
+        tmp_path, unwritable, no_run, reduce_refused, args):
+    s = write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 3600.0"))
+    before = sorted(os.listdir(unwritable))
+    refused(_fill(args, s=s, p=PAPER_TOML, d=unwritable), _option(args), "cannot write",
+            str(unwritable))
+    assert sorted(os.listdir(unwritable)) == before
+
+
+@pytest.mark.parametrize("args", OUTPUT_COMMANDS, ids=_id)
+def test_an_output_under_a_file_is_refused_before_the_work(tmp_path, no_run,
+                                                           reduce_refused, args):
+    s = write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 3600.0"))
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    refused(_fill(args, s=s, p=PAPER_TOML, d=blocker), _option(args), "is a file")
+    assert blocker.read_text() == "not a folder"
+
+
+@pytest.mark.parametrize("args, inside", [
+    (("sweep", "{p}", "-o", "{d}"), "cases"), (("sweep", "{p}", "-o", "{d}"), "figures"),
+    (("study", "{p}", "-o", "{d}", "--force"), "cache"),
+    (("study", "{p}", "-o", "{d}", "--force"), "sweep")])
+def test_a_file_where_a_sweep_or_study_makes_a_folder_is_refused(tmp_path, no_run, args,
+                                                                inside):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / inside).write_text("not a folder")
+    refused(_fill(args, p=PAPER_TOML, d=out), "--output", str(out / inside), "is a file")
+
+
+def test_probing_a_writable_folder_leaves_nothing_behind(tmp_path, no_run):
+    out = tmp_path / "out"
+    out.mkdir()
+    refused(["run", write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 1e7")), "-q",
+             "-o", out / "r.nc"], "solver.t_end")  # refused for its memory, after the probe
+    assert os.listdir(out) == []
+
+
+def test_an_existing_folder_as_output_file_is_named_a_folder(tmp_path, no_run):
+    (tmp_path / "r.nc").mkdir()
+    refused(["run", SHORT, "-q", "-o", tmp_path / "r.nc"], "--output", "is a folder")
+    refused(["run", SHORT, "-q", "-o", tmp_path], "--output", "is a folder")
+
+
+# -------------------------------------------------------- result files (point 8)
+@pytest.fixture(scope="module")
+def result_file(tmp_path_factory) -> Path:
+    ds = ltdsim.simulate(build(train_dict([1e5, 8e4, 8e4], t_end=2.0, dt=1e-3)))
+    return ltdsim.save_result(ds, tmp_path_factory.mktemp("res") / "good.nc")
+
+
+def _bad_results(folder: Path, good: Path) -> dict:
+    data = good.read_bytes()
+    made = {}
+
+    def put(name, content):
+        made[name] = folder / f"{name}.nc"
+        made[name].write_bytes(content)
+    put("truncated", data[: len(data) // 2])
+    put("empty", b"")
+    put("text", b"time,force\n0.0,1.0\n")
+    put("random", np.random.default_rng(13).bytes(4096))
+    xr.Dataset({"u": ("x", np.arange(3.0))}).to_netcdf(folder / "foreign.nc",
+                                                       engine="h5netcdf")
+    made["foreign"] = folder / "foreign.nc"
+    xr.Dataset({"u": ("x", np.arange(3.0))}).to_netcdf(folder / "classic.nc", engine="scipy")
+    made["classic"] = folder / "classic.nc"
+    ds = ltdsim.load_result(good).drop_vars("coupler_force")
+    made["incomplete"] = ltdsim.save_result(ds, folder / "incomplete.nc")
+    made["folder"] = folder / "folder.nc"
+    made["folder"].mkdir()
+    return made
+
+
+RESULT_WORDS = {"truncated": "cut short", "empty": "empty file", "text": "a text file",
+                "random": "unknown bytes", "foreign": "not a result written by ltdsim",
+                "classic": "netCDF-3", "incomplete": "lacks coupler_force",
+                "folder": "is a folder"}
+
+
+def test_load_result_says_what_is_wrong_with_each_bad_file(tmp_path, result_file):
+    made = _bad_results(tmp_path, result_file)
+    assert ltdsim.load_result(result_file).sizes["vehicle"] == 3
+    for kind, path in made.items():
+        with pytest.raises(ScenarioError) as info:
+            ltdsim.load_result(path)
+        msg = str(info.value)
+        assert msg.startswith(str(path)) and RESULT_WORDS[kind] in msg, (kind, msg)
+        assert len(msg.splitlines()) == 1
+    # the truncated file's message gives its size and the size it should have
+    msg = str(pytest.raises(ScenarioError, ltdsim.load_result, made["truncated"]).value)
+    assert f"{made['truncated'].stat().st_size:,} of its {result_file.stat().st_size:,}" in msg
+
+
+@pytest.mark.parametrize("command", ["modal", "spectrum", "phases", "sysid"])
+def test_analysis_commands_name_what_is_wrong_with_a_bad_result_file(tmp_path, result_file,
+                                                                     command):
+    made = _bad_results(tmp_path, result_file)
+    for kind, path in made.items():
+        refused([command, path, "-o", tmp_path / "out"], str(path), RESULT_WORDS[kind])
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_write_that_fails_after_the_run_is_one_line_exit_3(tmp_path, monkeypatch):
+    # the output folder passed the check, then the disk filled up while the train ran
+    def disk_full(ds, path):
+        raise OSError(28, "No space left on device", str(path))
+    monkeypatch.setattr(sys.modules["ltdsim.io"], "save_result", disk_full)
+    path = write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 0.5"))
+    refused(["run", path, "-q", "-o", tmp_path / "r.nc"], "r.nc", "No space left", code=3)

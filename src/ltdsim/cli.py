@@ -92,14 +92,8 @@ def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
         if overrides:
             raise ScenarioError("--set", [("", f"{file} is a saved result, not simulated "
                                                "again; give the scenario file to change it")])
-        try:
-            ds = load_result(file)
-            saved = json.loads(ds.attrs["scenario_json"])
-        except FileNotFoundError:
-            raise ScenarioError(str(file), [("", "file not found")]) from None
-        except (OSError, ValueError, KeyError) as exc:
-            raise ScenarioError(str(file), [("", "not a result written by ltdsim (netCDF with "
-                                                 f"its scenario): {exc}")]) from None
+        ds = load_result(file)  # (a ScenarioError in one line on a bad file)
+        saved = json.loads(ds.attrs["scenario_json"])
         held = ds.attrs.get("case") or None
         if case is not None and case != held:
             raise ScenarioError("--case", [("", f"{file} is a saved result of case "
@@ -109,7 +103,7 @@ def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
     sc = load_scenario(file, case=case)
     if overrides:
         sc = sc.with_overrides(parse_set(overrides), source="--set")
-    return (_simulate(sc, quiet) if run else None), sc
+    return (_simulate(sc, quiet, file) if run else None), sc
 
 
 def _label(sc) -> str:
@@ -117,13 +111,16 @@ def _label(sc) -> str:
     return sc.name + (f" [{sc.case}]" if sc.case else "")
 
 
-def _simulate(sc, quiet: bool = False):
-    """Simulate ``sc``: compile or load its kernel first ("compiling (first run only)"),
-    then a progress bar of simulated seconds on stderr (plain lines in a log)."""
-    from ltdsim.simulate import simulate
+def _simulate(sc, quiet: bool = False, source=None):
+    """Simulate ``sc``: refuse a recording too large for the memory available (naming
+    ``source``, the scenario file), warn about a step near the method's largest stable
+    step, compile or load its kernel ("compiling (first run only)"), then a progress bar
+    of simulated seconds on stderr (plain lines in a log)."""
+    from ltdsim.simulate import check_memory, simulate
     from ltdsim.stability import step_limit, warning
     from ltdsim.warmup import scenario_kernels, warm_up
 
+    check_memory(sc, source=None if source is None else str(source))
     near = warning(step_limit(sc))
     if near:
         err_console.print(f"[yellow]warning:[/] {escape(near)}", soft_wrap=True)
@@ -244,8 +241,9 @@ def _same_file(a: Path, b: Path) -> bool:
 
 
 def _check_output(path: Optional[Path], option: str, suffixes, inputs=()) -> None:
-    """Refuse, before any work, an output file that is one of the ``inputs`` or whose
-    suffix is not one of ``suffixes`` (what ltdsim writes under that option)."""
+    """Refuse, before any work, an output file that is one of the ``inputs``, an existing
+    folder, a file whose suffix is not one of ``suffixes`` (what ltdsim writes under that
+    option), or a file in a folder ltdsim cannot write into (or make)."""
     if path is None:
         return
     for given in inputs:
@@ -253,20 +251,45 @@ def _check_output(path: Optional[Path], option: str, suffixes, inputs=()) -> Non
             raise ScenarioError(option, [("", f"{path} is an input of this command; ltdsim "
                                               "never writes over its input: choose another "
                                               "path")])
+    if path.is_dir():
+        raise ScenarioError(option, [("", f"{path} is a folder; give a file name")])
     if path.suffix.lower() not in suffixes:
         what = f"suffix {path.suffix!r}" if path.suffix else "a file name without a suffix"
         kinds = {".nc": ".nc (netCDF-4)"}
         raise ScenarioError(option, [("", f"cannot write {what} ({path}); accepted: "
                                           f"{', '.join(kinds.get(x, x) for x in suffixes)}")])
-    if path.is_dir():
-        raise ScenarioError(option, [("", f"{path} is a folder; give a file name")])
+    _check_writable(path.parent, option)
 
 
 def _check_folder(path: Path, option: str = "--output") -> None:
-    """Refuse, before any work, an output folder that exists as a file."""
+    """Refuse, before any work, an output folder that exists as a file or that cannot be
+    written (or made)."""
     if path.exists() and not path.is_dir():
         raise ScenarioError(option, [("", f"{path} is a file, not a folder; give a folder "
                                           "for the tables and figures")])
+    _check_writable(path, option)
+
+
+def _check_writable(folder: Path, option: str) -> None:
+    """Refuse, before any work, a ``folder`` ltdsim could not write into: create and
+    remove a file in it (or, when it does not exist yet, in the nearest folder above it
+    that does, where it would be made)."""
+    import tempfile
+
+    there = Path(os.path.abspath(folder))
+    while not there.exists() and there != there.parent:
+        there = there.parent
+    if not there.is_dir():
+        raise ScenarioError(option, [("", f"cannot make the folder {folder}: {there} is a "
+                                          "file; choose another path")])
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".ltdsim-write-test-", dir=there)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise ScenarioError(option, [("", f"cannot write in {there} "
+                                          f"({exc.strerror or type(exc).__name__}); choose a "
+                                          "folder you can write to")]) from None
 
 
 def _csv(frame, path: Path, index: bool = False) -> None:
@@ -317,12 +340,12 @@ def run(
     try:
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
         if plot is not None:  # (matplotlib only when a figure is asked for)
-            _check_output(plot, "--plot", image_suffixes(), inputs=(file, output))
+            _check_output(plot, "--plot", image_suffixes(), inputs=(file,))
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
         label = _label(sc)  # plain text: _table keeps it so
-        ds = _simulate(sc, quiet)
+        ds = _simulate(sc, quiet, file)
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
@@ -355,14 +378,20 @@ def run(
     warning = travel_warning(ds, sc)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}")
-    if output is not None:
-        save_result(ds, output)
-        _say(f"result written to {output}")
-    if plot is not None:
-        from ltdsim.plotting import save_overview
+    try:  # (checked before the run; a disk that fills up meanwhile still fails here)
+        if output is not None:
+            save_result(ds, output)
+            _say(f"result written to {output}")
+        if plot is not None:
+            from ltdsim.plotting import save_overview
 
-        save_overview(ds, plot)
-        _say(f"figure written to {plot}")
+            save_overview(ds, plot)
+            _say(f"figure written to {plot}")
+    except OSError as exc:
+        err_console.print(f"[bold red]error (writing failed):[/] "
+                          f"{escape(str(exc.filename or output or plot))}: "
+                          f"{escape(exc.strerror or str(exc))}", highlight=False, soft_wrap=True)
+        raise typer.Exit(3) from None
 
 
 def _speed(v: float, digits: int = 1) -> str:
@@ -676,12 +705,17 @@ def sweep(
         _fail(ScenarioError("--best-by", [("best-by", f"one of {', '.join(sw.CRITERIA)}")]))
         return
     try:
-        _check_folder(output)
         _check_workers(workers)
-        spec = sw.load_sweep(file)
-        if set_:
-            spec = sw.with_overrides(spec, parse_set(set_))
+        for folder in (output, output / "cases") + ((output / "figures",) if figures else ()):
+            _check_folder(folder)
+        with Display(err_console) as show:
+            checking = _counter(show, "checking the cases")
+            spec = sw.load_sweep(file, progress=checking)
+            if set_:
+                spec = sw.with_overrides(spec, parse_set(set_), progress=checking)
         _check_scheduler(scheduler)
+        if not scheduler:  # (a cluster's workers check their own memory)
+            sw.check_sweep_memory(spec, str(file), workers)
     except ScenarioError as exc:
         _fail(exc)
         return
@@ -735,6 +769,17 @@ def sweep(
         console.print(f"[yellow]{len(failed)} case(s) did not finish; see "
                       f"{escape(str(output))}/cases[/]")
     _say(f"summary written to {output / 'summary.csv'}")
+
+
+def _counter(show: Display, description: str):
+    """``progress(done, total)`` that starts a bar of ``show`` at its first call."""
+    bar = {}
+
+    def progress(done: int, total: int) -> None:
+        if "update" not in bar:
+            bar["update"] = show.bar(description, total, "cases")
+        bar["update"](done)
+    return progress
 
 
 def _phases_or_fail(ds, sc):
@@ -1013,6 +1058,8 @@ def study(
 
     try:
         _check_workers(workers)
+        for folder in (output, output / "cache", output / "sweep", output / "sweep" / "cases"):
+            _check_folder(folder)
         overrides = parse_set(set_) if set_ else None
         with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
 import xarray as xr
+
+from ltdsim.errors import ScenarioError
 
 
 @contextmanager
@@ -41,7 +45,93 @@ def save_result(ds: xr.Dataset, path: str | Path) -> Path:
     return path
 
 
+#: what every result :func:`save_result` writes holds (dimensions and variables)
+RESULT_DIMS = ("time", "vehicle", "coupler")
+RESULT_VARS = ("position", "velocity", "acceleration", "coupler_deflection", "coupler_force",
+               "traction_force", "speed_reference", "speed_error", "adhesion_limit",
+               "traction_demand")
+_HDF5 = b"\x89HDF\r\n\x1a\n"
+
+
 def load_result(path: str | Path) -> xr.Dataset:
-    """Read a result written by :func:`save_result` into memory."""
-    with xr.open_dataset(path, engine="h5netcdf") as ds:
-        return ds.load()
+    """Read a result written by :func:`save_result` into memory.
+
+    Raises
+    ------
+    ScenarioError
+        In one line naming the file, when it is missing, a folder, empty, text or other
+        bytes rather than netCDF-4, cut short, damaged, or a netCDF file that ltdsim did
+        not write (without the variables and the scenario a result holds).
+    """
+    path = Path(path)
+    _check_result_file(path)
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            ds = ds.load()
+    except MemoryError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - h5py, h5netcdf and xarray raise many kinds
+        raise _bad(path, _damage(path, exc)) from None
+    missing = [v for v in RESULT_DIMS if v not in ds.dims]
+    missing += [v for v in RESULT_VARS if v not in ds.variables]
+    if "scenario_json" not in ds.attrs:
+        missing.append("the scenario_json attribute")
+    if missing:
+        shown = ", ".join(missing[:6]) + (f" and {len(missing) - 6} more" if len(missing) > 6
+                                          else "")
+        raise _bad(path, f"a netCDF-4 file, but not a result written by ltdsim: it lacks "
+                         f"{shown} (results come from ltdsim run -o FILE.nc or "
+                         "ltdsim.save_result)")
+    try:
+        json.loads(ds.attrs["scenario_json"])
+    except (TypeError, ValueError):
+        raise _bad(path, "its scenario_json attribute is not valid JSON; the result was "
+                         "damaged or not written by ltdsim") from None
+    return ds
+
+
+def _bad(path: Path, why: str) -> ScenarioError:
+    return ScenarioError(str(path), [("", why)])
+
+
+def _check_result_file(path: Path) -> None:
+    """Refuse, by its first bytes, what cannot be a netCDF-4 result."""
+    if path.is_dir():
+        raise _bad(path, "is a folder, not a result file (.nc)")
+    try:
+        size = path.stat().st_size
+        with path.open("rb") as fh:
+            head = fh.read(2048 + 8)
+    except FileNotFoundError:
+        raise _bad(path, "file not found") from None
+    except OSError as exc:
+        raise _bad(path, f"cannot read: {exc.strerror or exc}") from None
+    if size == 0:
+        raise _bad(path, "empty file (0 bytes), not a result; rerun the simulation that "
+                         "writes it")
+    if any(head[k:k + 8] == _HDF5 for k in (0, 512, 1024, 2048)):
+        return
+    if head[:3] == b"CDF":
+        raise _bad(path, "a netCDF-3 (classic) file, not a result written by ltdsim "
+                         "(ltdsim writes netCDF-4)")
+    if head[:3] == b"\x89HD" or (size < 8 and _HDF5.startswith(head)):
+        raise _bad(path, f"cut short: {size:,} bytes, not even a netCDF-4 header")
+    try:
+        text = head.decode("utf-8")
+        is_text = all(c.isprintable() or c in "\t\r\n" for c in text)
+    except UnicodeDecodeError:
+        is_text = False
+    kind = "a text file" if is_text else "unknown bytes (no netCDF-4/HDF5 signature)"
+    raise _bad(path, f"{kind}, not a result written by ltdsim (.nc, netCDF-4)")
+
+
+def _damage(path: Path, exc: Exception) -> str:
+    """What is wrong with a netCDF-4 file the reader refused, in a few words."""
+    text = str(exc)
+    found = re.search(r"eof = (\d+).*stored_eof = (\d+)", text)
+    if "truncated file" in text and found:
+        have, want = (int(x) for x in found.groups())
+        return (f"cut short: {have:,} of its {want:,} bytes (an interrupted copy or "
+                "write); copy it again or rerun the simulation that writes it")
+    first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__
+    return f"a damaged netCDF-4 file ({type(exc).__name__}: {first[:160]})"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import time as _time
 from collections.abc import Callable
 
@@ -10,8 +11,9 @@ import numpy as np
 import xarray as xr
 
 from ltdsim import kernel
-from ltdsim.errors import SimulationError
+from ltdsim.errors import ScenarioError, SimulationError
 from ltdsim.lowering import MAX_EVENTS, P_D0, T_REF, V_P0, Lowered, lower
+from ltdsim.integrators import get_tableau
 from ltdsim.scenario import Scenario
 
 #: Units of every variable in the result dataset.
@@ -68,6 +70,83 @@ DESCRIPTIONS = {
 
 ProgressFn = Callable[[float, float], None]
 
+#: share of the memory available when a run starts (``MemAvailable`` in /proc/meminfo)
+#: that one run's recording may take; a longer recording is refused before anything is
+#: allocated (see :func:`check_memory`)
+MEMORY_SHARE = 0.5
+
+
+def recording_bytes(scenario: Scenario) -> int:
+    """Memory a run of ``scenario`` needs, bytes: the recording (``n_samples`` x the
+    recorded values per sample x 8 bytes: position, velocity and acceleration per
+    vehicle, deflection and force per coupler, 6 train signals, brake force and cylinder
+    per braked vehicle, force per locomotive consist), the variables the result adds
+    (relative position and velocity per vehicle, speed error, time), and the kernel's
+    state and work arrays (an upper bound). Computed from the scenario alone, without
+    allocating anything."""
+    sv = scenario.solver
+    n = scenario.n_vehicles
+    nc = max(n - 1, 0)
+    nb = n if any(v.brake is not None for v in scenario.vehicles) else 0
+    nk = len(scenario.consists())
+    n_samples = sv.n_steps // sv.record_every + 1
+    per_sample = (3 * n + 2 * nc + kernel.N_SCALARS + 2 * nb + (nk if nk > 1 else 0)
+                  + 2 * n + 2)
+    ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
+    stages = 4 if sv.adaptive else get_tableau(sv.method).stages
+    work = kernel.work_size(n, ny, stages, nk) + 4 * ny + 4 * nc + n + 2 + nk
+    return 8 * (n_samples * per_sample + work)
+
+
+def available_memory() -> int | None:
+    """Memory available for new work now, bytes (``MemAvailable`` of /proc/meminfo on
+    Linux, else free physical pages), or None where neither can be read."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _gb(nbytes: float) -> str:
+    """A size in GB (10^9 bytes), e.g. ``0.0328 GB``, ``12.5 GB``, ``32,801 GB``."""
+    gb = nbytes / 1e9
+    return f"{gb:,.0f} GB" if gb >= 100 else f"{gb:.3g} GB"
+
+
+def check_memory(scenario: Scenario, source: str | None = None, parallel: int = 1,
+                 largest: int | None = None) -> int:
+    """Refuse, before anything is allocated, a run whose recording would take more than
+    :data:`MEMORY_SHARE` of the memory available; returns the estimate, bytes.
+
+    ``parallel`` runs of up to ``largest`` bytes each (default: the estimate of
+    ``scenario``, :func:`recording_bytes`) at once, as in a sweep. Raises
+    :class:`~ltdsim.errors.ScenarioError` naming the estimate in GB and the keys to
+    change (``solver.output_interval``, ``solver.t_end``).
+    """
+    need = recording_bytes(scenario) if largest is None else largest
+    avail = available_memory()
+    if avail is None or need * parallel <= MEMORY_SHARE * avail:
+        return need
+    sv = scenario.solver
+    n_samples = sv.n_steps // sv.record_every + 1
+    runs = (f"; {parallel} runs at once need {_gb(need * parallel)} (fewer with "
+            "--workers)" if parallel > 1 else "")
+    raise ScenarioError(source or f"scenario {scenario.name!r}", [(
+        "solver.output_interval, solver.t_end",
+        f"the recording would need about {_gb(need)} ({n_samples:,} samples of "
+        f"{scenario.n_vehicles} vehicles at output_interval = {sv.output_interval:g} s up "
+        f"to t_end = {sv.t_end:g} s){runs}: more than {MEMORY_SHARE:.0%} of the "
+        f"{_gb(avail)} of memory available; raise solver.output_interval or lower "
+        "solver.t_end")])
+
+
 
 def simulate(scenario: Scenario, progress: ProgressFn | None = None,
              chunks: int = 100) -> xr.Dataset:
@@ -96,10 +175,14 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
 
     Raises
     ------
+    ScenarioError
+        Before anything is allocated, if the recording would take more than
+        :data:`MEMORY_SHARE` of the memory available (:func:`check_memory`).
     SimulationError
         If the state becomes non-finite; the message names the time, the vehicle and
         coupler, and their values.
     """
+    check_memory(scenario)
     low = lower(scenario)
     t0 = _time.perf_counter()
     kern, args = zero_step_call(low)
@@ -156,7 +239,13 @@ def zero_step_call(low: Lowered):
 def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
     """Run the kernel over the whole scenario."""
     n_rec_total = low.n_steps // low.record_every + 1
-    rec, y, ctrl, astate, common = _buffers(low, n_rec_total)
+    try:
+        rec, y, ctrl, astate, common = _buffers(low, n_rec_total)
+    except MemoryError:  # the memory went to other work since check_memory looked
+        raise SimulationError(
+            f"not enough memory for the recording ({n_rec_total:,} samples, about "
+            f"{_gb(recording_bytes(scenario))}); raise solver.output_interval or lower "
+            "solver.t_end", time=0.0) from None
     out_dt = low.record_every * low.dt
     t_end = low.n_steps * low.dt
     per_rec = max(1, (n_rec_total - 1) // max(chunks, 1))

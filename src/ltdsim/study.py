@@ -353,19 +353,28 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     :func:`ltdsim.warmup.warm_up`; without it the compile is reported as the stage
     "compiling").
     """
+    from ltdsim.simulate import check_memory
+    from ltdsim.sweep import check_sweep_memory
+
     out = Path(out)
     scenario_path = Path(scenario_path)
     base = load_scenario(scenario_path)
-    # a file without cases runs as it is under the default base case; any other name
-    # must be one of its cases
-    if case not in base.cases and (base.cases or case != STUDY_CASE):
-        avail = ", ".join(base.cases) or "none (the file has no [cases.*]; leave --case out)"
+    if not base.cases:
+        raise ScenarioError(str(scenario_path), [("cases", "the study runs a scenario's "
+                                                           "named [cases.*]; this file has "
+                                                           "none (scenarios/paper.toml has the "
+                                                           "study's 16)")])
+    if case not in base.cases:
         raise ScenarioError(str(scenario_path), [("--case", f"unknown case {case!r}; "
-                                                            f"available: {avail}")])
+                                                            f"available: {', '.join(base.cases)}")])
     # the overrides apply after the case's own keys, as in a sweep
-    base_case = base.with_case(case) if case in base.cases else base
+    base_case = base.with_case(case)
     if overrides:
         base_case = base_case.with_overrides(overrides, source="--set")
+    spec = _sweep_spec(scenario_path, overrides)
+    # every input and the memory the runs need are checked before anything is written
+    check_sweep_memory(spec, str(scenario_path), workers)
+    check_memory(base_case, source=f"{scenario_path} case {case}")
     settings = study_settings(scenario_path, case, overrides, reduction, reduction_maxiter)
     _check_output(out, settings, force)
     out.mkdir(parents=True, exist_ok=True)
@@ -375,7 +384,6 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
         tmp.write_text(json.dumps(settings, indent=1))
     cache = _Cache(out)
     say = progress or (lambda stage, msg: None)
-    spec = _sweep_spec(scenario_path, overrides)
     if on_compile is None:
         def on_compile(elapsed, done):
             say("compiling", f"first run only: {elapsed:.0f} s" + (", done" if done else ""))

@@ -19,11 +19,12 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import hashlib
-import itertools
 import json
+import math
 import multiprocessing
 import os
-from collections.abc import Callable
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,6 +38,14 @@ from ltdsim.scenario import Scenario, load_scenario, read_toml
 SWEEP_KEYS = {"name", "scenario", "case", "overrides", "grid", "list", "monte_carlo"}
 DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
                  "lognormal": ("mean", "sigma")}
+#: the most cases one sweep may hold (grid, list or Monte-Carlo samples); a larger grid
+#: is refused with its count before any case is made
+MAX_CASES = 100_000
+#: ``progress(checked, total)`` while the cases of a large sweep are validated
+Checked = Callable[[int, int], None]
+#: built scenarios a sweep keeps at once (each case is rebuilt from its overrides when
+#: it is needed again, so a large sweep's memory does not grow with its cases)
+_KEEP_BUILT = 256
 
 
 @dataclass
@@ -47,31 +56,81 @@ class Case:
     overrides: dict
 
 
+class LazyCases(Sequence):
+    """A read-only sequence of ``n`` cases, case ``i`` made by ``make(i)`` when it is
+    asked for: a grid of many cases takes no memory until its cases are used."""
+
+    def __init__(self, n: int, make: Callable[[int], Case]):
+        self._n = n
+        self._make = make
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self._make(j) for j in range(*i.indices(self._n))]
+        if i < 0:
+            i += self._n
+        if not 0 <= i < self._n:
+            raise IndexError(i)
+        return self._make(i)
+
+
+def _grid_cases(keys: list[str], values: list[list], common: dict) -> LazyCases:
+    """The full-factorial cases of ``keys`` x ``values`` in the order of
+    ``itertools.product`` (the last key varies fastest), made one at a time."""
+    sizes = [len(v) for v in values]
+
+    def make(i: int) -> Case:
+        picked = {}
+        rest = i
+        for key, vals, size in zip(reversed(keys), reversed(values), reversed(sizes)):
+            rest, j = divmod(rest, size)
+            picked[key] = vals[j]
+        return Case(f"g{i:04d}", {**common, **{k: picked[k] for k in keys}})
+
+    return LazyCases(math.prod(sizes), make)
+
+
 @dataclass
 class Sweep:
-    """A base scenario, its cases, and where the sweep file came from."""
+    """A base scenario, its cases, and where the sweep file came from.
+
+    ``largest`` is ``(bytes, case id)`` of the case whose run needs the most memory
+    (:func:`ltdsim.simulate.recording_bytes`), found when the cases are validated."""
 
     base: Scenario
-    cases: list[Case]
+    cases: Sequence[Case]
     source: str
-    _built: dict = field(default_factory=dict, repr=False)
+    largest: tuple[int, str] | None = None
+    _built: OrderedDict = field(default_factory=OrderedDict, repr=False)
 
     def scenario(self, case: Case) -> Scenario:
-        """The validated scenario of ``case`` (built once)."""
-        if case.id not in self._built:
-            self._built[case.id] = self.base.with_overrides(
-                case.overrides, source=f"{self.source} case {case.id}")
-        return self._built[case.id]
+        """The validated scenario of ``case`` (the last few built are kept)."""
+        built = self._built.get(case.id)
+        if built is None:
+            built = self.base.with_overrides(case.overrides,
+                                             source=f"{self.source} case {case.id}")
+            self._built[case.id] = built
+            while len(self._built) > _KEEP_BUILT:
+                self._built.popitem(last=False)
+        else:
+            self._built.move_to_end(case.id)
+        return built
 
 
-def with_overrides(sweep: Sweep, overrides: dict, source: str = "--set") -> Sweep:
+def with_overrides(sweep: Sweep, overrides: dict, source: str = "--set",
+                   progress: Checked | None = None) -> Sweep:
     """The sweep with dotted-key ``overrides`` applied to every case, after the case's own
     (so they win where both set a key). A bad override is reported once, as ``source``."""
     if not overrides:
         return sweep
     sweep.base.with_overrides(overrides, source=source)  # names a bad key once
-    cases = [Case(c.id, {**c.overrides, **overrides}) for c in sweep.cases]
-    return _validated(Sweep(sweep.base, cases, sweep.source))
+    before = sweep.cases
+    cases = LazyCases(len(before), lambda i: Case(before[i].id,
+                                                  {**before[i].overrides, **overrides}))
+    return _validated(Sweep(sweep.base, cases, sweep.source), progress)
 
 
 def fingerprint(scenario: Scenario, extras=()) -> str:
@@ -84,8 +143,12 @@ def fingerprint(scenario: Scenario, extras=()) -> str:
 
 
 # --------------------------------------------------------------------- sweep files
-def load_sweep(path: str | Path) -> Sweep:
+def load_sweep(path: str | Path, progress: Checked | None = None) -> Sweep:
     """Read a scenario file (its named cases) or a sweep file; validate every case.
+
+    A grid is expanded lazily (its cases are made when used) and refused beyond
+    :data:`MAX_CASES` cases before any is made. ``progress(checked, total)`` is called
+    while the cases of a large sweep (1000 or more) are validated.
 
     Raises ScenarioError naming the file, key and problem.
     """
@@ -98,42 +161,94 @@ def load_sweep(path: str | Path) -> Sweep:
             raise ScenarioError(source, [("cases", "the scenario has no [cases.*] to sweep; "
                                                    "give a sweep file instead")])
         cases = [Case(name, dict(ov)) for name, ov in base.cases.items()]
-        return _validated(Sweep(base, cases, source))
+        return _validated(Sweep(base, cases, source), progress)
 
     unknown = sorted(set(data) - SWEEP_KEYS)
     if unknown:
         raise ScenarioError(source, [(k, f"unknown key; allowed: {', '.join(sorted(SWEEP_KEYS))}")
                                      for k in unknown])
-    base = load_scenario(path.parent / data["scenario"], case=data.get("case"))
-    common = dict(data.get("overrides", {}))
     kinds = [k for k in ("grid", "list", "monte_carlo") if k in data]
     if len(kinds) != 1:
-        raise ScenarioError(source, [("", "give exactly one of [grid], [list], [monte_carlo]"
-                                          f" (found {', '.join(kinds) or 'none'})")])
+        raise ScenarioError(source, [("", "give exactly one of [grid], [list] or "
+                                          "[monte_carlo] (found "
+                                          f"{', '.join(f'[{k}]' for k in kinds) or 'none'})")])
     kind = kinds[0]
+    for key in ("overrides", kind):
+        if key in data and not isinstance(data[key], dict):
+            raise ScenarioError(source, [(key, f"expected a table [{key}], got "
+                                               f"{type(data[key]).__name__}")])
+    for key in ("scenario", "case", "name"):
+        if key in data and not isinstance(data[key], str):
+            raise ScenarioError(source, [(key, f"expected a string, got "
+                                               f"{type(data[key]).__name__}")])
+    target = path.parent / data["scenario"]
+    if target.exists() and _same_file(target, path):
+        raise ScenarioError(source, [("scenario", "names this sweep file; give the scenario "
+                                                  "file the cases start from")])
+    base = load_scenario(target, case=data.get("case"))
+    common = _dotted(data.get("overrides", {}))
     if kind == "grid":
-        keys = list(data["grid"])
-        values = [_values(source, f"grid.{k}", data["grid"][k]) for k in keys]
-        combos = list(itertools.product(*values))
-        cases = [Case(f"g{i:04d}", {**common, **dict(zip(keys, c))}) for i, c in enumerate(combos)]
+        grid = _dotted(data["grid"])
+        if not grid:
+            raise ScenarioError(source, [("grid", "no keys to vary; give each key a list of "
+                                                  "values")])
+        keys = list(grid)
+        values = [_values(source, f"grid.{k}", grid[k]) for k in keys]
+        count = math.prod(len(v) for v in values)
+        if count > MAX_CASES:
+            raise ScenarioError(source, [("grid", f"{count:,} cases "
+                                                  f"({' x '.join(str(len(v)) for v in values)}"
+                                                  f" values) is more than {MAX_CASES:,}, the "
+                                                  "most one sweep holds; give fewer values, "
+                                                  "split the grid into several sweeps or "
+                                                  "sample it with [monte_carlo]")])
+        cases = _grid_cases(keys, values, common)
     elif kind == "list":
-        keys = list(data["list"])
-        values = [_values(source, f"list.{k}", data["list"][k]) for k in keys]
+        table = _dotted(data["list"])
+        if not table:
+            raise ScenarioError(source, [("list", "no keys; give each key a list of values")])
+        keys = list(table)
+        values = [_values(source, f"list.{k}", table[k]) for k in keys]
         lengths = {len(v) for v in values}
         if len(lengths) != 1:
             raise ScenarioError(source, [("list", f"all lists must have one length, got "
                                                   f"{sorted(lengths)}")])
+        if len(values[0]) > MAX_CASES:
+            raise ScenarioError(source, [("list", f"{len(values[0]):,} cases is more than "
+                                                  f"{MAX_CASES:,}, the most one sweep holds")])
         cases = [Case(f"l{i:04d}", {**common, **dict(zip(keys, c))})
                  for i, c in enumerate(zip(*values))]
     else:
         cases = [Case(f"mc{i:04d}", {**common, **ov})
                  for i, ov in enumerate(_monte_carlo(source, data["monte_carlo"]))]
-    return _validated(Sweep(base, cases, source))
+    return _validated(Sweep(base, cases, source), progress)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _dotted(table: dict, prefix: str = "", leaf=lambda v: False) -> dict:
+    """``{"solver": {"t_end": 10}}`` (TOML's unquoted ``solver.t_end = 10``) as
+    ``{"solver.t_end": 10}``; quoted dotted keys stay as they are. A table for which
+    ``leaf`` is true is kept whole (a Monte-Carlo distribution)."""
+    out = {}
+    for k, v in table.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict) and not leaf(v):
+            out.update(_dotted(v, f"{key}.", leaf))
+        else:
+            out[key] = v
+    return out
 
 
 def _values(source, key, v):
     if not isinstance(v, list) or not v:
-        raise ScenarioError(source, [(key, "expected a non-empty list of values")])
+        raise ScenarioError(source, [(key, "expected a non-empty list of values, e.g. "
+                                           "[1.0, 2.0]")])
     return v
 
 
@@ -148,23 +263,23 @@ def _monte_carlo(source, mc: dict) -> list[dict]:
                                                           f"{', '.join(sorted(allowed))}")
                                      for k in bad])
     n = mc.get("samples")
-    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 100_000:
-        raise ScenarioError(source, [("monte_carlo.samples", "an integer from 1 to 100000"
-                                                             f" (got {n!r})")])
-    if "seed" not in mc:
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_CASES:
+        raise ScenarioError(source, [("monte_carlo.samples", f"an integer from 1 to "
+                                                             f"{MAX_CASES} (got {n!r})")])
+    seed = mc.get("seed")
+    if seed is None:
         raise ScenarioError(source, [("monte_carlo.seed", "required: samples must be "
                                                           "reproducible")])
-    seed = mc["seed"]
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ScenarioError(source, [("monte_carlo.seed", f"a whole number, 0 or more "
                                                           f"(got {seed!r})")])
-    rng = np.random.default_rng(seed)
     params = mc.get("parameters", {})
     if not isinstance(params, dict):
-        raise ScenarioError(source, [("monte_carlo.parameters", "must be a table of "
-                                                                "\"key\" = { dist = ... }")])
+        raise ScenarioError(source, [("monte_carlo.parameters", "expected a table "
+                                                                "[monte_carlo.parameters]")])
+    rng = np.random.default_rng(seed)
     columns = {}
-    for key, spec in params.items():
+    for key, spec in _dotted(params, leaf=lambda v: "dist" in v).items():
         where = f"monte_carlo.parameters.{key}"
         dist = spec.get("dist") if isinstance(spec, dict) else None
         if dist not in DISTRIBUTIONS:
@@ -197,16 +312,54 @@ def _monte_carlo(source, mc: dict) -> list[dict]:
     return [{k: float(col[i]) for k, col in columns.items()} for i in range(n)]
 
 
-def _validated(sweep: Sweep) -> Sweep:
+def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
+    """``sweep`` once every case's scenario is valid (else a ScenarioError naming each
+    bad case, at most 20 of them), with its most memory-hungry case in ``largest``."""
+    from ltdsim.simulate import recording_bytes
+
     problems = []
-    for case in sweep.cases:
+    bad = 0
+    largest = None
+    total = len(sweep.cases)
+    report = progress if progress is not None and total >= 1000 else None
+    for k, case in enumerate(sweep.cases):
+        if report is not None and k % 500 == 0:
+            report(k, total)
         try:
-            sweep.scenario(case)
+            sc = sweep.scenario(case)
         except ScenarioError as exc:
-            problems += [(f"case {case.id}: {k}", m) for k, m in exc.problems]
+            bad += 1
+            if bad <= 20:
+                problems += [(f"case {case.id}" + (f": {k}" if k else ""), m)
+                             for k, m in exc.problems]
+            continue
+        need = recording_bytes(sc)
+        if largest is None or need > largest[0]:
+            largest = (need, case.id)
     if problems:
+        if bad > 20:
+            problems.append(("", f"... and {bad - 20:,} more cases with problems"))
         raise ScenarioError(sweep.source, problems)
+    if report is not None:
+        report(total, total)
+    sweep.largest = largest
     return sweep
+
+
+def check_sweep_memory(sweep: Sweep, source: str, workers: int | None = None) -> None:
+    """Refuse (ScenarioError) a sweep whose largest case, run on every local worker at
+    once (``workers``, default all cores), would take more than its share of the memory
+    available (:func:`ltdsim.simulate.check_memory`); checked before any case runs."""
+    from ltdsim.simulate import check_memory
+
+    if sweep.largest is None:
+        return
+    need, case_id = sweep.largest
+    parallel = max(1, min(workers if workers and workers > 0 else os.cpu_count() or 1,
+                          len(sweep.cases)))
+    case = next(c for c in sweep.cases if c.id == case_id)
+    check_memory(sweep.scenario(case), source=f"{source} case {case_id}", parallel=parallel,
+                 largest=need)
 
 
 # ---------------------------------------------------------------------- one case
