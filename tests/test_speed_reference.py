@@ -51,7 +51,9 @@ def test_rounded_corners_are_the_constant_jerk_s_curve(accel, jerk_time, v1, cru
     assert_allclose(got, s_curve(tt, 0.0, v1, 0.0, accel, jerk_time), rtol=0,
                     atol=jerk * 0.02**2 / 8 + 1e-12)
     slope = np.diff(v) / np.diff(t)
-    assert slope.max() <= accel * (1 + 1e-12) and slope.min() >= -1e-12
+    # a finite difference of speeds rounded to double precision: its own rounding error
+    rounding = 4 * np.finfo(float).eps * np.abs(v).max() / np.diff(t).min()
+    assert slope.max() <= accel + rounding and slope.min() >= -rounding
     assert np.abs(np.diff(slope)).max() <= jerk * 0.02 * (1 + 1e-6)  # no corner left
 
 
