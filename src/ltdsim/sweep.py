@@ -21,8 +21,6 @@ import concurrent.futures as cf
 import hashlib
 import itertools
 import json
-import multiprocessing
-import os
 import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -388,8 +386,9 @@ def _executor(scheduler, workers):
 
         client = Client(scheduler)
         return client.get_executor(), client.close
-    ctx = multiprocessing.get_context("spawn")
-    ex = cf.ProcessPoolExecutor(max_workers=workers or os.cpu_count(), mp_context=ctx)
+    from ltdsim._workers import process_executor
+
+    ex = process_executor(workers)  # its workers end when this process dies
     return ex, lambda: ex.shutdown(wait=True, cancel_futures=True)
 
 
