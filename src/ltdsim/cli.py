@@ -594,7 +594,7 @@ def sweep(
             summary = sw.run_sweep(spec, output, scheduler=scheduler, workers=workers,
                                    keep_results=keep_results, retry_failed=retry_failed,
                                    progress=lambda d, n, c: update(d),
-                                   on_compile=show.compiling)
+                                   on_compile=show.compiling, notice=show.note)
         except KeyboardInterrupt:
             err_console.print("[yellow]interrupted: finished cases are kept; run the same "
                               "command again to resume[/]")
@@ -892,7 +892,7 @@ def study(
         with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
                               workers=workers, force=force, progress=show.stage,
-                              on_compile=show.compiling)
+                              on_compile=show.compiling, notice=show.note)
             show.done(f"report written to {index}")
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
