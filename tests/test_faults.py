@@ -17,6 +17,7 @@ import pytest
 import xarray as xr
 
 from ltdsim import sweep as sw
+from ltdsim.errors import ScenarioError
 from ltdsim.io import load_result, read_sealed
 from ltdsim.study import run_study
 
@@ -134,7 +135,10 @@ def test_a_killed_sweep_leaves_no_process_and_resumes_to_the_same_results(tmp_pa
     notes, ran = [], []
     resumed = sw.run_sweep(spec, out, workers=2, notice=notes.append,
                            progress=lambda d, total, c: ran.append(c) if c else None)
-    assert notes == []  # every record the killed run wrote is complete (atomic writes)
+    # every record the killed run wrote is complete (atomic writes); at most a temporary
+    # file it was writing when killed is left, and removed
+    assert all(line.startswith("removed ") for line in notes), notes
+    assert not list((out / "cases").glob(".*.part"))
     assert set(ran) == {c.id for c in spec.cases} - finished_before
     undisturbed = sw.run_sweep(spec, tmp_path / "undisturbed", workers=2)
     pd.testing.assert_frame_equal(resumed, undisturbed)
@@ -271,3 +275,12 @@ def test_damaged_study_state_recomputes_exactly_the_damaged_stages(tmp_path):
         assert reused == {"base", "modal"} - kinds
         assert {p.name: p.read_text() for p in out.glob("*.csv")} == tables
         _same_data(out / "base_case.nc", ref_nc)
+
+    # a damaged study.json is a study's own only beside a study's cache: a folder of
+    # somebody else's files is still refused, before any work
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "study.json").write_text("somebody else's notes")
+    with pytest.raises(ScenarioError, match="--output.*not empty"):
+        run_study(scenario, other, reduction=False, workers=1)
+    assert (other / "study.json").read_text() == "somebody else's notes"

@@ -147,19 +147,21 @@ def _check_output(out: Path, settings: dict, force: bool, notice=None) -> None:
     manifest = out / MANIFEST
     if not out.is_dir() or force:
         return
+    damaged = None
     try:
         old = json.loads(manifest.read_text())
     except FileNotFoundError:
         old = None
     except (OSError, ValueError) as exc:
-        why = "not valid JSON" if isinstance(exc, ValueError) else (exc.strerror or str(exc))
-        _say_notice(notice, f"rewriting {manifest} (the settings of the report): {why}")
+        old, damaged = None, ("not valid JSON" if isinstance(exc, ValueError)
+                              else exc.strerror or str(exc))
+    if old is not None and not isinstance(old, dict):
+        old, damaged = None, "not a settings record"
+    if damaged and (out / "cache").is_dir():
+        # a study's damaged record: the stage caches still guard what is reused
+        _say_notice(notice, f"rewriting {manifest} (the settings of the report): {damaged}")
         return
-    if not isinstance(old, dict):
-        _say_notice(notice, f"rewriting {manifest} (the settings of the report): not a "
-                            "settings record")
-        return
-    if old is None:
+    if old is None:  # (a damaged study.json in a folder without a study's cache too)
         if any(out.iterdir()):
             raise ScenarioError("--output", [("", f"{out} is not empty and holds no ltdsim "
                                                   "study; choose an empty or new folder, or "

@@ -320,6 +320,18 @@ def finished(out: Path, sweep: Sweep, retry_failed: bool = False, extras=(),
     return done
 
 
+def _remove_partial_files(out: Path, notice=None) -> None:
+    """Remove the temporary files (``.<name>.<random>.part``, see
+    :func:`ltdsim.io.atomic_path`) a killed run left in ``cases/``: never a finished
+    file, only what was being written when the run stopped."""
+    stale = [p for p in (Path(out) / "cases").glob(".*.part") if p.is_file()]
+    for p in stale:
+        p.unlink(missing_ok=True)
+    if stale:
+        _notice(notice, f"removed {len(stale)} unfinished temporary file(s) from a stopped "
+                        f"run in {Path(out) / 'cases'}")
+
+
 def _notice(notice, text: str) -> None:
     if notice is None:
         logging.getLogger("ltdsim").warning(text)
@@ -368,6 +380,7 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
     """
     out = Path(out)
     (out / "cases").mkdir(parents=True, exist_ok=True)
+    _remove_partial_files(out, notice)
     skip = finished(out, sweep, retry_failed, extras, keep_results, notice)
     todo = [c for c in sweep.cases if c.id not in skip]
     total = len(sweep.cases)
