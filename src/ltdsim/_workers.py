@@ -16,7 +16,8 @@ Every worker therefore runs :func:`init_worker` first:
   changes (the process was re-parented: its parent is gone). The thread runs when the
   worker holds no lock on the interpreter, i.e. between compiled kernel calls.
 
-With the workers gone, the resource tracker reads end-of-file and exits by itself.
+Both pools spawn their workers (children of the process that made the pool). With the
+workers gone, the resource tracker reads end-of-file and exits by itself.
 """
 
 from __future__ import annotations
@@ -73,8 +74,9 @@ def process_executor(workers: int | None) -> cf.ProcessPoolExecutor:
 
 def process_pool(workers: int | None):
     """A ``multiprocessing.Pool`` of spawned workers (children of this process, not of a
-    fork server, and no fork of a process that runs threads) whose workers end with
-    this process; ``None`` or -1: all cores."""
+    fork server; no fork of a process that runs threads) whose workers end with this
+    process; ``None`` or -1: all cores. As with every spawned worker, a script that
+    uses it runs its work under ``if __name__ == "__main__":``."""
     n = None if workers is None or workers < 0 else workers
-    return multiprocessing.get_context("spawn").Pool(n, initializer=init_worker,
-                                                     initargs=(os.getpid(),))
+    return multiprocessing.get_context("spawn").Pool(
+        n, initializer=init_worker, initargs=(os.getpid(),))

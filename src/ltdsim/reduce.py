@@ -165,7 +165,9 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
     bounds : dict, optional
         ``{name: (low, high)}`` search bounds overriding :data:`DEFAULT_BOUNDS`.
     workers : int
-        Parallel processes for the population (-1: all cores).
+        Parallel processes for the population (-1: all cores). They are spawned and end
+        with this process even when it is killed; a script that asks for more than one
+        runs its work under ``if __name__ == "__main__":``.
     tol, maxiter, popsize, seed
         Passed to ``differential_evolution`` (relative tolerance, generations).
     progress : callable, optional
