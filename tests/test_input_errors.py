@@ -645,7 +645,6 @@ from typer.testing import CliRunner  # noqa: E402
 
 from ltdsim import study  # noqa: E402
 from ltdsim import sweep as sw  # noqa: E402
-from ltdsim.cli import app  # noqa: E402
 
 SHORT = ROOT / "scenarios" / "short-train.toml"
 PAPER_TOML = ROOT / "scenarios" / "paper.toml"

@@ -15,7 +15,7 @@ import pytest
 from ltdsim.errors import ScenarioError
 from ltdsim.study import run_study
 
-from conftest import PAPER, ROOT
+from conftest import PAPER
 
 SHORT = {"solver.t_end": 12.0}
 

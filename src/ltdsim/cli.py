@@ -725,7 +725,7 @@ def sweep(
             summary = sw.run_sweep(spec, output, scheduler=scheduler, workers=workers,
                                    keep_results=keep_results, retry_failed=retry_failed,
                                    progress=lambda d, n, c: update(d),
-                                   on_compile=show.compiling)
+                                   on_compile=show.compiling, notice=show.note)
         except (OSError, TimeoutError) as exc:
             if not scheduler:
                 raise
@@ -1064,7 +1064,7 @@ def study(
         with Display(err_console) as show:
             index = run_study(file, output, case=case, overrides=overrides, reduction=reduction,
                               workers=workers, force=force, progress=show.stage,
-                              on_compile=show.compiling)
+                              on_compile=show.compiling, notice=show.note)
             show.done(f"report written to {index}")
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)

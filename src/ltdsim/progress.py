@@ -37,7 +37,8 @@ class Display:
     * :meth:`compiling` is a :func:`ltdsim.warmup.warm_up` tick;
     * :meth:`bar` starts a counted task (simulated seconds, cases) and returns its
       ``update(done)`` callback;
-    * :meth:`stage` reports a stage and a message (``ltdsim study``).
+    * :meth:`stage` reports a stage and a message (``ltdsim study``);
+    * :meth:`note` prints a line that must be read (damaged state being recomputed).
 
     Nothing is shown when ``quiet``.
     """
@@ -73,6 +74,16 @@ class Display:
     def log(self, text: str) -> None:
         """One timestamped line (log mode only)."""
         if self.quiet or self.live:
+            return
+        with self._lock:
+            self.console.print(f"{time.strftime('%H:%M:%S')} {text}", markup=False,
+                               highlight=False, soft_wrap=True)
+
+    def note(self, text: str) -> None:
+        """A line that must be read (e.g. "recomputing case g0001: ..."): printed above
+        the live display on a terminal, timestamped in a log; also when ``quiet``."""
+        if self.live:
+            self._progress.console.print(text, markup=False, highlight=False, soft_wrap=True)
             return
         with self._lock:
             self.console.print(f"{time.strftime('%H:%M:%S')} {text}", markup=False,

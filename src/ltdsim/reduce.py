@@ -165,7 +165,9 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
     bounds : dict, optional
         ``{name: (low, high)}`` search bounds overriding :data:`DEFAULT_BOUNDS`.
     workers : int
-        Parallel processes for the population (-1: all cores).
+        Parallel processes for the population (-1: all cores). They are spawned and end
+        with this process even when it is killed; a script that asks for more than one
+        runs its work under ``if __name__ == "__main__":``.
     tol, maxiter, popsize, seed
         Passed to ``differential_evolution`` (relative tolerance, generations).
     progress : callable, optional
@@ -195,10 +197,19 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
         if progress is not None:
             progress(generation[0], maxiter, float(intermediate_result.fun))
 
-    res = differential_evolution(objective, log_bounds, tol=tol, maxiter=maxiter,
-                                 popsize=popsize, seed=seed, workers=workers,
-                                 updating="deferred" if workers != 1 else "immediate",
-                                 polish=True, callback=callback)
+    def optimise(mapper):
+        return differential_evolution(objective, log_bounds, tol=tol, maxiter=maxiter,
+                                      popsize=popsize, seed=seed, workers=mapper,
+                                      updating="deferred" if workers != 1 else "immediate",
+                                      polish=True, callback=callback)
+
+    if workers == 1:
+        res = optimise(1)
+    else:  # scipy's own pool would outlive this process if it were killed
+        from ltdsim._workers import process_pool
+
+        with process_pool(workers) as pool:
+            res = optimise(pool.map)
     values = 10.0 ** res.x
     fitted = objective.force(values)
     return Reduction(

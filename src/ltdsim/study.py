@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 from collections.abc import Callable
 from pathlib import Path
 
@@ -31,7 +32,8 @@ import numpy as np
 
 from ltdsim._provenance import code_hash
 from ltdsim.errors import ScenarioError
-from ltdsim.io import atomic_path, save_result
+from ltdsim.io import (atomic_path, file_problem, file_record, read_sealed, save_result,
+                       sealed_json)
 from ltdsim.scenario import CouplerParams, Scenario, load_scenario
 
 STAGES = ("reduction", "sweep", "base", "modal", "report")
@@ -49,25 +51,49 @@ def _key(*parts) -> str:
 
 
 class _Cache:
-    def __init__(self, out: Path):
+    """Each stage's result in ``<out>/cache/<stage>.json``: a record sealed with the hash
+    of its content, holding the key the result was computed from and the size and
+    content hash of every file the stage wrote. A record or file that is unreadable,
+    truncated, emptied, deleted or altered is reported once ("recomputing stage
+    <stage>: <why>") and the stage computed again."""
+
+    def __init__(self, out: Path, notice: Callable[[str], None] | None = None):
+        self.out = out
         self.dir = out / "cache"
         self.dir.mkdir(parents=True, exist_ok=True)
+        self.notice = notice
+        self._seen: dict[tuple[str, str], object] = {}  # (stage, key) -> value or None
 
     def get(self, stage: str, key: str):
-        p = self.dir / f"{stage}.json"
+        """The cached value of ``stage`` computed from ``key``, or None to compute it."""
+        if (stage, key) not in self._seen:  # check (and hash the files) once per run
+            self._seen[stage, key] = self._load(stage, key)
+        return self._seen[stage, key]
+
+    def _load(self, stage: str, key: str):
         try:
-            rec = json.loads(p.read_text())
-        except (OSError, ValueError):  # absent, unreadable or corrupt: recompute
-            return None
-        if (isinstance(rec, dict) and rec.get("key") == key
-                and all(Path(f).is_file() for f in rec.get("files", []))):
-            return rec["value"]
+            rec = read_sealed(self.dir / f"{stage}.json")
+        except FileNotFoundError:
+            return None  # not computed yet
+        except ValueError as exc:
+            return self._damaged(stage, str(exc))
+        if rec.get("key") != key or "value" not in rec:
+            return None  # computed from other settings or code: compute, as asked
+        for f in rec.get("files", []):
+            why = file_problem(f, self.out)
+            if why is not None:
+                return self._damaged(stage, why)
+        return rec["value"]
+
+    def _damaged(self, stage: str, why: str) -> None:
+        _say_notice(self.notice, f"recomputing stage {stage}: {why}")
         return None
 
     def put(self, stage: str, key: str, value, files=()):
+        rec = {"key": key, "value": value, "files": [file_record(f, self.out) for f in files]}
         with atomic_path(self.dir / f"{stage}.json") as tmp:
-            tmp.write_text(json.dumps({"key": key, "value": value,
-                                       "files": [str(f) for f in files]}, default=float))
+            tmp.write_text(sealed_json(rec))
+        self._seen[stage, key] = value
         return value
 
 
@@ -111,21 +137,31 @@ def _dotted(data, key: str):
     return data
 
 
-def _check_output(out: Path, settings: dict, force: bool) -> None:
+def _check_output(out: Path, settings: dict, force: bool, notice=None) -> None:
     """Refuse to mix a new study into a folder that holds another report (or other
-    files), unless ``force``; checked before any work is done."""
+    files), unless ``force``; checked before any work is done. A settings record that
+    cannot be read is reported through ``notice`` and written again (the stage caches
+    still reuse only what was computed from the same inputs)."""
     if out.exists() and not out.is_dir():
         raise ScenarioError("--output", [("", f"{out} is a file, not a folder")])
     manifest = out / MANIFEST
     if not out.is_dir() or force:
         return
+    damaged = None
     try:
         old = json.loads(manifest.read_text())
     except FileNotFoundError:
         old = None
-    except (OSError, ValueError):
-        old = {}
-    if old is None:
+    except (OSError, ValueError) as exc:
+        old, damaged = None, ("not valid JSON" if isinstance(exc, ValueError)
+                              else exc.strerror or str(exc))
+    if old is not None and not isinstance(old, dict):
+        old, damaged = None, "not a settings record"
+    if damaged and (out / "cache").is_dir():
+        # a study's damaged record: the stage caches still guard what is reused
+        _say_notice(notice, f"rewriting {manifest} (the settings of the report): {damaged}")
+        return
+    if old is None:  # (a damaged study.json in a folder without a study's cache too)
         if any(out.iterdir()):
             raise ScenarioError("--output", [("", f"{out} is not empty and holds no ltdsim "
                                                   "study; choose an empty or new folder, or "
@@ -137,6 +173,13 @@ def _check_output(out: Path, settings: dict, force: bool) -> None:
                                               f"settings ({', '.join(what)} differ); keep it "
                                               "by choosing another --output, or replace it "
                                               "with --force")])
+
+
+def _say_notice(notice, text: str) -> None:
+    if notice is None:
+        logging.getLogger("ltdsim").warning(text)
+    else:
+        notice(text)
 
 
 SWEEP_EXTRAS = ("sysid", "spectra")
@@ -175,17 +218,20 @@ def _sweep_spec(scenario_path, overrides):
     return sw.with_overrides(spec, overrides or {})
 
 
-def _stage_sweep(out, spec, workers, progress, on_compile):
-    # (no stage cache: the sweep keeps every finished case itself, by fingerprint)
+def _stage_sweep(out, spec, workers, progress, on_compile, notice=None):
+    # (no stage cache: the sweep keeps every finished case itself, by fingerprint, and
+    # runs again a case whose record is damaged)
     from ltdsim import sweep as sw
 
     sw.run_sweep(spec, out / "sweep", workers=workers, extras=SWEEP_EXTRAS,
                  progress=lambda d, n, c: progress("sweep", f"{d}/{n} cases"),
-                 on_compile=on_compile)
+                 on_compile=on_compile, notice=notice)
     records = {}
     for case in spec.cases:
-        p = sw.case_path(out / "sweep", case.id)
-        records[case.id] = json.loads(p.read_text()) if p.is_file() else {"status": "not run"}
+        try:
+            records[case.id] = read_sealed(sw.case_path(out / "sweep", case.id))
+        except (OSError, ValueError):  # (only if the file was damaged during this run)
+            records[case.id] = {"status": "not run"}
     return records
 
 
@@ -281,6 +327,10 @@ def _diagnosis(ds, scenario: Scenario, figure: Path) -> dict | None:
             "closed_loop": loop, "figure": str(figure)}
 
 
+def _modal_key(scenario: Scenario) -> str:
+    return _key("modal", scenario.to_dict())
+
+
 def _stage_modal(out, cache, scenario: Scenario):
     """Modes of the base case at the low (k1) and high (k2 + k3) stiffness, free and with
     the locomotive held, and the bands of the softest and stiffest couplings among the
@@ -288,7 +338,7 @@ def _stage_modal(out, cache, scenario: Scenario):
     from ltdsim.modal import coupling_stiffness, save_mode_shapes, train_modes
 
     series = 2  # a draft gear at each wagon end: two gears in series per coupling
-    key = _key("modal", scenario.to_dict())
+    key = _modal_key(scenario)
     files = [out / "fig8_modes_low.png", out / "fig8_modes_high.png"]
     hit = cache.get("modal", key)
     if hit is not None:
@@ -328,7 +378,8 @@ def _warm_up(out, cache, spec, base_case, reduction, reduction_maxiter, on_compi
     calls = []
     if reduction and cache.get("reduction", _reduction_key(reduction_maxiter)) is None:
         calls.append(gear_rig_kernel())
-    done = sw.finished(out / "sweep", spec, extras=SWEEP_EXTRAS)
+    # (silent: the sweep stage itself reports a damaged case)
+    done = sw.finished(out / "sweep", spec, extras=SWEEP_EXTRAS, notice=lambda text: None)
     runs = [spec.scenario(c) for c in spec.cases if c.id not in done]
     if cache.get("base", _base_key(base_case)) is None:
         runs.append(base_case)
@@ -341,7 +392,8 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
               overrides: dict | None = None, reduction: bool = True,
               reduction_maxiter: int = STUDY_REDUCTION_MAXITER, workers: int | None = None,
               progress: Progress | None = None, force: bool = False,
-              on_compile: Callable[[float, bool], None] | None = None) -> Path:
+              on_compile: Callable[[float, bool], None] | None = None,
+              notice: Callable[[str], None] | None = None) -> Path:
     """Run every stage and write ``<out>/index.html``; returns its path.
 
     ``overrides`` (dotted keys) apply to every case after its own keys (e.g. a shorter
@@ -351,7 +403,9 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     work. ``progress(stage, message)`` reports the stages; ``on_compile(elapsed_s,
     done)`` the compile of the kernels on a first run (see
     :func:`ltdsim.warmup.warm_up`; without it the compile is reported as the stage
-    "compiling").
+    "compiling"); ``notice(line)`` each damaged stage, case or file that is computed
+    again ("recomputing stage base: report/base_case.nc has 1024 bytes (written with
+    ...)"; logged as a warning without it). A stage that is reused says so.
     """
     from ltdsim.simulate import check_memory
     from ltdsim.sweep import check_sweep_memory
@@ -376,13 +430,13 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     check_sweep_memory(spec, str(scenario_path), workers)
     check_memory(base_case, source=f"{scenario_path} case {case}")
     settings = study_settings(scenario_path, case, overrides, reduction, reduction_maxiter)
-    _check_output(out, settings, force)
+    _check_output(out, settings, force, notice)
     out.mkdir(parents=True, exist_ok=True)
     if force:  # a stale page must never sit beside the new run's files
         (out / "index.html").unlink(missing_ok=True)
     with atomic_path(out / MANIFEST) as tmp:
         tmp.write_text(json.dumps(settings, indent=1))
-    cache = _Cache(out)
+    cache = _Cache(out, notice)
     say = progress or (lambda stage, msg: None)
     if on_compile is None:
         def on_compile(elapsed, done):
@@ -390,14 +444,19 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     _warm_up(out, cache, spec, base_case, reduction, reduction_maxiter, on_compile)
     results = {"settings": settings,
                "deviations": deviations(settings, load_scenario(scenario_path))}
+
+    def announce(stage, key, msg):
+        say(stage, f"reused from {cache.dir}" if cache.get(stage, key) is not None else msg)
+
     if reduction:
-        say("reduction", "fitting the simplified coupler to the friction gears")
+        announce("reduction", _reduction_key(reduction_maxiter),
+                 "fitting the simplified coupler to the friction gears")
         results["reduction"] = _stage_reduction(out, cache, reduction_maxiter, workers or -1)
     say("sweep", "running the cases")
-    results["sweep"] = _stage_sweep(out, spec, workers, say, on_compile)
-    say("base", f"base case {case}: phases, spectra")
+    results["sweep"] = _stage_sweep(out, spec, workers, say, on_compile, notice)
+    announce("base", _base_key(base_case), f"base case {case}: phases, spectra")
     results["base"] = _stage_base(out, cache, base_case)
-    say("modal", "natural frequencies")
+    announce("modal", _modal_key(base_case), "natural frequencies")
     results["modal"] = _stage_modal(out, cache, base_case)
     say("report", "writing index.html")
     from ltdsim.report import write_report

@@ -20,8 +20,8 @@ from __future__ import annotations
 import concurrent.futures as cf
 import hashlib
 import json
+import logging
 import math
-import multiprocessing
 import os
 from collections import OrderedDict
 from collections.abc import Callable, Sequence
@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from ltdsim.errors import LtdsimError, ScenarioError
-from ltdsim.io import atomic_path
+from ltdsim.io import atomic_path, file_problem, file_record, read_sealed, sealed_json
 from ltdsim.scenario import Scenario, load_scenario, read_toml
 
 SWEEP_KEYS = {"name", "scenario", "case", "overrides", "grid", "list", "monte_carlo"}
@@ -453,32 +453,74 @@ def _sysid_record(ds, scenario: Scenario) -> dict:
 
 # ------------------------------------------------------------------------ sweeps
 def case_path(out: Path, case_id: str) -> Path:
-    return out / "cases" / f"{case_id}.json"
+    return Path(out) / "cases" / f"{case_id}.json"
 
 
-def finished(out: Path, sweep: Sweep, retry_failed: bool = False, extras=()) -> set[str]:
-    """Ids of the cases already on disk with the same content fingerprint."""
+def result_path(out: Path, case_id: str) -> Path:
+    """Where ``--keep-results`` writes a case's time series."""
+    return Path(out) / "cases" / f"{case_id}.nc"
+
+
+def finished(out: Path, sweep: Sweep, retry_failed: bool = False, extras=(),
+             keep_results: bool = False,
+             notice: Callable[[str], None] | None = None) -> set[str]:
+    """Ids of the cases already on disk with the same content fingerprint, their record
+    intact (its content hash) and, with ``keep_results``, their time series too (size
+    and content hash as written). A damaged record or time series is not finished:
+    ``notice`` gets one line "recomputing case <id>: <why>" for each."""
+    out = Path(out)
     done = set()
     for case in sweep.cases:
         p = case_path(out, case.id)
-        if not p.is_file():
-            continue
         try:
-            rec = json.loads(p.read_text())
-        except (OSError, json.JSONDecodeError):
-            continue  # a damaged file is run again
-        if rec.get("fingerprint") != fingerprint(sweep.scenario(case), extras):
+            rec = read_sealed(p)
+        except FileNotFoundError:
+            continue  # not run yet
+        except ValueError as exc:
+            _notice(notice, f"recomputing case {case.id}: {exc}")
             continue
-        if rec.get("status") == "ok" or (rec.get("status") == "failed" and not retry_failed):
-            done.add(case.id)
+        if rec.get("fingerprint") != fingerprint(sweep.scenario(case), extras):
+            continue  # computed from another scenario or code: run again, as asked
+        status = rec.get("status")
+        if not (status == "ok" or (status == "failed" and not retry_failed)):
+            continue
+        if keep_results and status == "ok":
+            kept = rec.get("result_file")
+            why = (file_problem(kept, out) if kept is not None else
+                   f"{result_path(out, case.id)} was not kept by the run that computed it "
+                   "(--keep-results asks for it)")
+            if why is not None:
+                _notice(notice, f"recomputing case {case.id}: {why}")
+                continue
+        done.add(case.id)
     return done
+
+
+def _remove_partial_files(out: Path, notice=None) -> None:
+    """Remove the temporary files (``.<name>.<random>.part``, see
+    :func:`ltdsim.io.atomic_path`) a killed run left in ``cases/``: never a finished
+    file, only what was being written when the run stopped."""
+    stale = [p for p in (Path(out) / "cases").glob(".*.part") if p.is_file()]
+    for p in stale:
+        p.unlink(missing_ok=True)
+    if stale:
+        _notice(notice, f"removed {len(stale)} unfinished temporary file(s) from a stopped "
+                        f"run in {Path(out) / 'cases'}")
+
+
+def _notice(notice, text: str) -> None:
+    if notice is None:
+        logging.getLogger("ltdsim").warning(text)
+    else:
+        notice(text)
 
 
 def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
               workers: int | None = None, keep_results: bool = False,
               retry_failed: bool = False, extras: tuple[str, ...] = (),
               progress: Callable[[int, int, str], None] | None = None,
-              on_compile: Callable[[float, bool], None] | None = None) -> pd.DataFrame:
+              on_compile: Callable[[float, bool], None] | None = None,
+              notice: Callable[[str], None] | None = None) -> pd.DataFrame:
     """Run the unfinished cases of ``sweep`` into folder ``out``; return the summary.
 
     Parameters
@@ -499,6 +541,14 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
     on_compile : callable, optional
         ``on_compile(elapsed_s, done)`` while the kernels are compiled (first run only;
         see :func:`ltdsim.warmup.warm_up`).
+    notice : callable, optional
+        ``notice(line)`` for each case found damaged on disk and run again
+        ("recomputing case <id>: <why>"); logged as a warning if None.
+
+    A case record (``cases/<id>.json``) holds the hash of its own content and, with
+    ``keep_results``, the size and content hash of its ``cases/<id>.nc``: a record or a
+    time series that is unreadable, truncated, emptied, deleted or altered is reported
+    and its case run again.
 
     On local processes the kernels the cases need are compiled (or loaded) here before
     the workers start, so that each worker loads them from numba's cache instead of
@@ -506,7 +556,8 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
     """
     out = Path(out)
     (out / "cases").mkdir(parents=True, exist_ok=True)
-    skip = finished(out, sweep, retry_failed, extras)
+    _remove_partial_files(out, notice)
+    skip = finished(out, sweep, retry_failed, extras, keep_results, notice)
     todo = [c for c in sweep.cases if c.id not in skip]
     total = len(sweep.cases)
     done = len(skip)
@@ -563,20 +614,25 @@ def _executor(scheduler, workers):
 
         client = Client(scheduler)
         return client.get_executor(), client.close
-    ctx = multiprocessing.get_context("spawn")
-    ex = cf.ProcessPoolExecutor(max_workers=workers or os.cpu_count(), mp_context=ctx)
+    from ltdsim._workers import process_executor
+
+    ex = process_executor(workers)  # its workers end when this process dies
     return ex, lambda: ex.shutdown(wait=True, cancel_futures=True)
 
 
 def _write_case(out: Path, case: Case, fp: str, record: dict) -> None:
+    """Write a case's record (sealed with its content hash; with the size and content
+    hash of its time series when one is kept), each file atomically, the time series
+    first: a record on disk always describes files that are complete."""
+    from ltdsim.io import save_result
+
     result = record.pop("result", None)
     if result is not None:
-        from ltdsim.io import save_result
-
-        save_result(result, out / "cases" / f"{case.id}.nc")
+        nc = save_result(result, result_path(out, case.id))
+        record["result_file"] = file_record(nc, out)
     record.update(fingerprint=fp, overrides=case.overrides)
     with atomic_path(case_path(out, case.id)) as tmp:
-        tmp.write_text(json.dumps(record, indent=1, default=float))
+        tmp.write_text(sealed_json(record))
 
 
 def summary_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
