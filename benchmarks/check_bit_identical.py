@@ -2,8 +2,9 @@
 
 ``save OUT.npz`` simulates every shipped scenario and each of its cases for 10 s at the
 scenario's own settings, the study case LHHL over its full 270 s, and a few variants
-that reach the other code paths (friction-wedge and table gears under ode3, bs23 on the
-paper train, brakes with the emergency case), and stores every data variable and
+that reach the other code paths (friction-wedge and table gears under ode3, bs23 and
+rk4 on the paper train, a controller sampled every 10 steps; the heavy-haul cases bring
+bs23 with air brakes and friction gears), and stores every data variable and
 coordinate of each result. ``compare OUT.npz`` runs the same list with the code on
 ``PYTHONPATH`` and reports, per run, whether every array is bitwise equal (NaN equal to
 NaN at the same place) and the largest difference where it is not. Exit status 1 when
@@ -53,6 +54,10 @@ def runs(quick: bool = False):
             {"couplers.default": {"preset": preset}, "solver.t_end": 2.0})))
     out.append(("paper[LHHL] bs23 10 s", paper.with_overrides(
         {"solver.method": "bs23", "solver.t_end": 10.0})))
+    out.append(("paper[LHHL] PID sampled every 10 steps 10 s", paper.with_overrides(
+        {"driver.pid.ts": 1e-3, "solver.t_end": 10.0})))
+    out.append(("paper[LHHL] bs23 PID ts 1e-3 10 s", paper.with_overrides(
+        {"solver.method": "bs23", "driver.pid.ts": 1e-3, "solver.t_end": 10.0})))
     out.append(("paper[LHHL] rk4 5 s", paper.with_overrides(
         {"solver.method": "rk4", "solver.t_end": 5.0})))
     return out

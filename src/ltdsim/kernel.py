@@ -10,22 +10,26 @@ bs23 step control, the right-hand side's signals) are numpy records with named f
 (``CONTROLLER``, ``STEPPER``, ``SIGNALS``), read as ``st["a_dem"]``, a form that also
 runs as plain Python (``NUMBA_DISABLE_JIT=1``). Numba compiles a kernel once per set of
 argument types and finds it in its on-disk cache by the classes' import names, so the
-classes live here at module level. The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of
-each vehicle from its initial position (m), its speed (m/s), and the internal states of
-the hysteretic draft gears (internal force N; wedge gears also the plate displacement m,
-and with an S table the impact speed m/s; see
-:mod:`ltdsim.physics.draftgear`). The discrete PID is
-sampled between steps and its output held over the step (zero-order hold), as a
-digital controller is; every continuous quantity is a pure function of ``(t, y)``, so
-any Runge-Kutta method can evaluate it any number of times per step.
+classes live here at module level.
+
+The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of each
+vehicle from its initial position (m), its speed (m/s), and the internal states of the
+hysteretic draft gears (internal force N; wedge gears also the plate displacement m,
+and with an S table the impact speed m/s; see :mod:`ltdsim.physics.draftgear`), then
+the traction lags and the brake-cylinder fills. The discrete PID is sampled between
+steps and its output held over the step (zero-order hold), as a digital controller is;
+every continuous quantity is a pure function of ``(t, y)``, so any Runge-Kutta method
+can evaluate it any number of times per step.
 
 Compiling. The small helpers are inlined by numba into their callers
 (``inline="always"``). The large ones (:func:`rhs`, :func:`_gear`, :func:`_record`,
 :func:`_controller`, :func:`_brake_commands`) are compiled once each and inlined by
 LLVM instead (``forceinline=True``): numba's own inlining copies and types a function's
-whole body again at every call site, and with the right-hand side called from three
-places in :func:`run` and four in :func:`run_adaptive` their first compile took about
-140 s and 200 s of CPU (now about 17 s each, and the second shares most of the first).
+whole body again at every call site, and with the right-hand side then called from
+three places in :func:`run` and four in :func:`run_adaptive` their first compile took
+about 140 s and 200 s of CPU (now about 17 s each, and the second shares most of the
+first). Both kernels take their Runge-Kutta stages from one routine, :func:`_stages`,
+and sample the controller on one clock, :func:`_sample_due`.
 The compiled kernels hold no calls to these functions: the machine code does the same
 work as before. No argument of these functions may be a constant at a call site either:
 numba compiles a function once per set of argument types, and a constant such as ``0``
@@ -56,7 +60,6 @@ from ltdsim.lowering import (
     D_BTAUR,
     D_AW,
     D_BVS,
-    D_EVERY,
     D_FILT,
     D_INT,
     D_KD,
@@ -248,19 +251,25 @@ class FixedStep(NamedTuple):
 
 
 class Adaptive(NamedTuple):
-    """The error-controlled Bogacki-Shampine 3(2) pair and the run's record grid."""
+    """An embedded Runge-Kutta pair under error control (bs23,
+    :data:`ltdsim.integrators.BS23`) and the run's record grid."""
 
     out_dt: float  # time between records, s
     n_rec: int  # records of the whole run
     h_max: float  # largest step, s
     atol: np.ndarray  # (ny,) absolute error scale per state element (units of the state)
     rtol: np.ndarray  # (ny,) relative tolerance per state element, -
+    A: np.ndarray  # (stages, stages) Butcher tableau
+    b: np.ndarray  # (stages,) weights of the solution kept
+    c: np.ndarray  # (stages,) nodes
+    e: np.ndarray  # (stages + 1,) error weights, the last for the step's end (FSAL)
 
 
 class Work(NamedTuple):
     """Scratch arrays of a kernel call, owned by the caller (see :func:`make_work`)."""
 
-    K: np.ndarray  # stage derivatives, stage s at K[s * ny:(s + 1) * ny]
+    K: np.ndarray  # stage derivatives, stage s at K[s * ny:(s + 1) * ny] (bs23: 4 stages,
+    #                the last the right-hand side at the step's end)
     ytmp: np.ndarray  # (ny,) stage state, then the step's increment
     ynew: np.ndarray  # (ny,) the candidate state of a bs23 step
     force: np.ndarray  # (max(n - 1, 1),) coupler forces, N (+ tension)
@@ -739,6 +748,40 @@ def _track_peaks(force, peaks, nc, t):
         _fold_peak(peaks, j, force[j], t)
 
 
+@njit(cache=True, inline="always")
+def _sample_due(t, st, ts, tol):
+    """The controller's clock, the same for both kernels: True when its next sample,
+    at ``st["next_sample"] * ts`` (s), is due at ``t`` (s) within ``tol`` (s), and the
+    clock then moves on to the sample after it."""
+    m = st["next_sample"]
+    if t >= m * ts - tol:
+        st["next_sample"] = m + 1
+        return True
+    return False
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _stages(t, y, h, A, C, ns, a_dem, n_events, tr, cp, dr, events, w):
+    """Stages 2 to ``ns`` of an explicit Runge-Kutta step of size ``h`` (s) from
+    ``(t, y)``, given stage 1 at ``w.K[0:ny]``: stage s is the right-hand side at
+    ``t + C[s] h`` and ``y + h sum_j A[s, j] K_j``, written to ``w.K[s * ny:(s + 1) *
+    ny]``. The one stage routine of :func:`run` and :func:`run_adaptive`."""
+    K = w.K
+    ytmp = w.ytmp
+    ny = y.shape[0]
+    for s in range(1, ns):
+        for q in range(ny):
+            ytmp[q] = y[q]
+        for j in range(s):
+            wt = h * A[s, j]
+            if wt != 0.0:
+                o = j * ny
+                for q in range(ny):
+                    ytmp[q] += wt * K[o + q]
+        rhs(t + C[s] * h, ytmp, a_dem, n_events, tr, cp, dr, events, w,
+            K[s * ny:(s + 1) * ny])
+
+
 @njit(cache=True, _nrt=False, forceinline=True)
 def _controller(t, y, ctl, tr, dr, w):
     """One controller sample at ``t``: the PID's demanded acceleration, clipped to the
@@ -798,14 +841,14 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     ny = y.shape[0]
     ns = B.shape[0]
     speed_mode = drv[D_MODE] == MODE_SPEED
-    every = int(drv[D_EVERY])
+    ts = drv[D_TS]
+    half = 0.5 * dt  # (sample times fall on steps: ts is a whole number of steps)
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
-    # counters instead of k % every: integer division is slow in the loop
-    c_ctrl = k_start % every
+    # a counter instead of k % record_every: integer division is slow in the loop
     c_rec = k_start % record_every
     for k in range(k_start, k_stop):
         t = k * dt
-        sampled = speed_mode and c_ctrl == 0
+        sampled = speed_mode and _sample_due(t, st, ts, half)
         if sampled:
             _controller(t, y, ctl, tr, dr, w)
         if braking:
@@ -819,17 +862,7 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         if c_rec == 0:
             _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
                     out)
-        for s in range(1, ns):
-            for q in range(ny):
-                ytmp[q] = y[q]
-            for j in range(s):
-                wt = dt * A[s, j]
-                if wt != 0.0:
-                    o = j * ny
-                    for q in range(ny):
-                        ytmp[q] += wt * K[o + q]
-            rhs(t + C[s] * dt, ytmp, a_dem, n_ev, tr, cp, dr, ctl.events, w,
-                K[s * ny:(s + 1) * ny])
+        _stages(t, y, dt, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
         # y += dt * sum_s b_s K_s, increment summed first for accuracy
         for q in range(ny):
             ytmp[q] = 0.0
@@ -844,9 +877,6 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
             total += y[q]
         if not (total - total == 0.0):
             return NONFINITE, k + 1
-        c_ctrl += 1
-        if c_ctrl == every:
-            c_ctrl = 0
         c_rec += 1
         if c_rec == record_every:
             c_rec = 0
@@ -859,21 +889,17 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     return OK, k_stop
 
 
-#: Bogacki-Shampine 3(2): third-order weights and the error weights (3rd - 2nd order)
-_BS_B = (2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0)
-_BS_E = (-5.0 / 72.0, 1.0 / 12.0, 1.0 / 9.0, -1.0 / 8.0)
-
-
 @njit(cache=True, _nrt=False)
 def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
-    """Advance ``y`` with the embedded Bogacki-Shampine 3(2) pair under error control,
-    from record ``r_start`` (time ``r_start * ad.out_dt``) to record ``r_stop``.
+    """Advance ``y`` with an embedded Runge-Kutta pair (the Bogacki-Shampine 3(2) of
+    ``ad``) under error control, from record ``r_start`` (time ``r_start * ad.out_dt``)
+    to record ``r_stop``.
 
     ``ctl`` :class:`Controller`, ``stepper`` one ``STEPPER`` record (array of one)
     carried over between calls, ``ad`` :class:`Adaptive`; the others as in :func:`run`
-    (``w`` sized for 4 stages). Every step keeps the error estimate ``|y3 - y2|``
-    within ``atol + rtol |y|`` element by element (max norm); steps end exactly on
-    record times, controller samples and scheduled brake commands. Records
+    (``w`` sized for the pair's stages plus one). Every step keeps the error estimate
+    ``|y3 - y2|`` within ``atol + rtol |y|`` element by element (max norm); steps end
+    exactly on record times, controller samples and scheduled brake commands. Records
     ``r_start`` (when it is 0) to ``r_stop - 1``, and ``n_rec - 1`` when ``r_stop``
     reaches ``n_rec``.
 
@@ -883,12 +909,16 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     drv = dr.par
     st = ctl.state[0]
     sp = stepper[0]
+    A = ad.A
+    B = ad.b
+    C = ad.c
+    E = ad.e
+    ns = B.shape[0]
     atol = ad.atol
     rtol = ad.rtol
     out_dt = ad.out_dt
     n_rec = ad.n_rec
     K = w.K
-    ytmp = w.ytmp
     ynew = w.ynew
     force = w.force
     peaks = out.peaks
@@ -909,14 +939,10 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     fresh = True  # K[0:ny] must be (re)computed at (t, y)
     while True:
         # ---- driver: controller sample, brake commands (at the start of the step)
-        sampled = False
-        if speed_mode:
-            m = st["next_sample"]
-            if t >= m * ts - eps:
-                _controller(t, y, ctl, tr, dr, w)
-                st["next_sample"] = m + 1
-                sampled = True
-                fresh = True
+        sampled = speed_mode and _sample_due(t, st, ts, eps)
+        if sampled:
+            _controller(t, y, ctl, tr, dr, w)
+            fresh = True
         if braking:
             issued = _brake_commands(t, eps, y, ctl, tr, dr, w, sampled)
             if issued < 0:
@@ -950,27 +976,27 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         if t + h_try >= t_next - eps:
             h_try = t_next - t
             hit = True
-        # ---- one Bogacki-Shampine step
-        for q in range(ny):
-            ytmp[q] = y[q] + 0.5 * h_try * K[q]
-        rhs(t + 0.5 * h_try, ytmp, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[ny:2 * ny])
-        for q in range(ny):
-            ytmp[q] = y[q] + 0.75 * h_try * K[ny + q]
-        rhs(t + 0.75 * h_try, ytmp, a_dem, n_ev, tr, cp, dr, ctl.events, w,
-            K[2 * ny:3 * ny])
+        # ---- one step of the embedded pair: its stages, the solution kept, the error
+        _stages(t, y, h_try, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
         total = 0.0
         for q in range(ny):
-            ynew[q] = y[q] + h_try * (_BS_B[0] * K[q] + _BS_B[1] * K[ny + q]
-                                      + _BS_B[2] * K[2 * ny + q])
+            acc = B[0] * K[q]
+            for s in range(1, ns):
+                acc += B[s] * K[s * ny + q]
+            ynew[q] = y[q] + h_try * acc
             total += ynew[q]
         t_new = t_next if hit else t + h_try
         err = np.inf
         if total - total == 0.0:
-            rhs(t_new, ynew, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[3 * ny:4 * ny])
+            # the right-hand side at the step's end: the error's last stage, and the next
+            # step's first if the step is accepted (first same as last)
+            rhs(t_new, ynew, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[ns * ny:(ns + 1) * ny])
             err = 0.0
             for q in range(ny):
-                e = h_try * (_BS_E[0] * K[q] + _BS_E[1] * K[ny + q] + _BS_E[2] * K[2 * ny + q]
-                             + _BS_E[3] * K[3 * ny + q])
+                acc = E[0] * K[q]
+                for s in range(1, ns + 1):
+                    acc += E[s] * K[s * ny + q]
+                e = h_try * acc
                 sc = atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q]))
                 e = abs(e) / sc
                 if e > err:
@@ -981,7 +1007,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             t = t_new
             for q in range(ny):
                 y[q] = ynew[q]
-                K[q] = K[3 * ny + q]  # first same as last
+                K[q] = K[ns * ny + q]  # first same as last
             _track_peaks(force, peaks, n - 1, t)
             sp["accepted"] += 1
             # PI step-size control (Gustafsson): smoother step sequences, fewer rejections

@@ -129,16 +129,16 @@ def _buffers(low: Lowered, n_rec: int):
     }
     y = low.y0.copy()
     ctl = kernel.Controller(np.zeros(1, dtype=kernel.CONTROLLER), np.zeros(2), rec["events"])
-    stages = 4 if low.adaptive else low.tableau.stages
+    tab = low.tableau
+    stages = tab.stages + 1 if low.adaptive else tab.stages  # (bs23: + the step's end)
     out = kernel.Outputs(rec["x"], rec["v"], rec["a"], rec["d"], rec["f"], rec["s"], rec["b"],
                          rec["p"], rec["c"], rec["peaks"])
     common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
               kernel.make_work(n, y.shape[0], stages, nk), out)
     if low.adaptive:
         grid = kernel.Adaptive(low.record_every * low.dt, n_rec, low.max_step, low.atol,
-                               low.rtol)
+                               low.rtol, tab.A, tab.b, tab.c, tab.e)
     else:
-        tab = low.tableau
         grid = kernel.FixedStep(low.dt, low.n_steps, low.record_every, tab.A, tab.b, tab.c)
     stepper = kernel.make_stepper(low.dt)  # bs23 carry-over
     return rec, y, ctl, stepper, grid, common
