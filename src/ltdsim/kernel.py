@@ -298,23 +298,25 @@ class Outputs(NamedTuple):
 
 def make_train(low) -> Train:
     """:class:`Train` of a :class:`~ltdsim.lowering.Lowered` scenario."""
-    return Train(low.veh, 1.0 / low.veh[:, V_MASS], low.cons, low.trac, low.track_pos,
-                 low.track_grade, low.track_curv, low.curve_h, low.ctab)
+    return Train(veh=low.veh, inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
+                 track_pos=low.track_pos, track_grade=low.track_grade,
+                 track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab)
 
 
 def make_couplers(low) -> Couplers:
     """:class:`Couplers` of a :class:`~ltdsim.lowering.Lowered` scenario."""
-    return Couplers(low.cpl_model, low.cpl)
+    return Couplers(model=low.cpl_model, par=low.cpl)
 
 
 def make_driver(low) -> Driver:
     """:class:`Driver` of a :class:`~ltdsim.lowering.Lowered` scenario."""
-    return Driver(low.drv, low.prof_t, low.prof_y)
+    return Driver(par=low.drv, prof_t=low.prof_t, prof_y=low.prof_y)
 
 
-def make_controller(max_events: int) -> Controller:
-    """A controller that has done nothing yet, with room for ``max_events`` commands."""
-    return Controller(np.zeros(1, dtype=CONTROLLER), np.zeros(2), np.zeros((max_events, 2)))
+def make_controller(events: np.ndarray) -> Controller:
+    """A controller that has done nothing yet, issuing its brake commands into
+    ``events`` (``(max commands, 2)``, ``EV_*`` columns)."""
+    return Controller(state=np.zeros(1, dtype=CONTROLLER), pid=np.zeros(2), events=events)
 
 
 def make_stepper(h0: float) -> np.ndarray:
@@ -329,9 +331,10 @@ def make_work(n: int, ny: int, stages: int, n_consists: int) -> Work:
     """:class:`Work` for ``n`` vehicles, a state of ``ny`` elements, ``stages`` stage
     derivatives and ``n_consists`` locomotive consists."""
     nc = max(n - 1, 1)
-    return Work(np.zeros(stages * ny), np.zeros(ny), np.zeros(ny), np.zeros(nc),
-                np.zeros(nc), np.zeros(n), np.zeros(n), np.zeros(n_consists),
-                np.zeros(1, dtype=SIGNALS), np.zeros(n + 2 + n_consists, dtype=np.int64))
+    return Work(K=np.zeros(stages * ny), ytmp=np.zeros(ny), ynew=np.zeros(ny),
+                force=np.zeros(nc), defl=np.zeros(nc), res=np.zeros(n), bforce=np.zeros(n),
+                fcons=np.zeros(n_consists), sig=np.zeros(1, dtype=SIGNALS),
+                hints=np.zeros(n + 2 + n_consists, dtype=np.int64))
 
 
 @njit(cache=True, inline="always")

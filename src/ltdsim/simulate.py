@@ -128,18 +128,19 @@ def _buffers(low: Lowered, n_rec: int):
         "events": np.zeros((MAX_EVENTS, 2)),
     }
     y = low.y0.copy()
-    ctl = kernel.Controller(np.zeros(1, dtype=kernel.CONTROLLER), np.zeros(2), rec["events"])
+    ctl = kernel.make_controller(rec["events"])
     tab = low.tableau
     stages = tab.stages + 1 if low.adaptive else tab.stages  # (bs23: + the step's end)
-    out = kernel.Outputs(rec["x"], rec["v"], rec["a"], rec["d"], rec["f"], rec["s"], rec["b"],
-                         rec["p"], rec["c"], rec["peaks"])
+    out = kernel.Outputs(**{k: rec[k] for k in kernel.Outputs._fields})
     common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
               kernel.make_work(n, y.shape[0], stages, nk), out)
     if low.adaptive:
-        grid = kernel.Adaptive(low.record_every * low.dt, n_rec, low.max_step, low.atol,
-                               low.rtol, tab.A, tab.b, tab.c, tab.e)
+        grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
+                               h_max=low.max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
+                               b=tab.b, c=tab.c, e=tab.e)
     else:
-        grid = kernel.FixedStep(low.dt, low.n_steps, low.record_every, tab.A, tab.b, tab.c)
+        grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
+                                A=tab.A, b=tab.b, c=tab.c)
     stepper = kernel.make_stepper(low.dt)  # bs23 carry-over
     return rec, y, ctl, stepper, grid, common
 
