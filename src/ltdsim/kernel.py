@@ -773,14 +773,22 @@ def _stages(t, y, h, A, C, ns, a_dem, n_events, tr, cp, dr, events, w):
     ytmp = w.ytmp
     ny = y.shape[0]
     for s in range(1, ns):
-        for q in range(ny):
-            ytmp[q] = y[q]
+        # (loops over the state innermost, one pass per nonzero coefficient: vectorised)
+        first = True
         for j in range(s):
             wt = h * A[s, j]
             if wt != 0.0:
                 o = j * ny
-                for q in range(ny):
-                    ytmp[q] += wt * K[o + q]
+                if first:
+                    for q in range(ny):
+                        ytmp[q] = y[q] + wt * K[o + q]
+                    first = False
+                else:
+                    for q in range(ny):
+                        ytmp[q] += wt * K[o + q]
+        if first:
+            for q in range(ny):
+                ytmp[q] = y[q]
         rhs(t + C[s] * h, ytmp, a_dem, n_events, tr, cp, dr, events, w,
             K[s * ny:(s + 1) * ny])
 
@@ -981,12 +989,16 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             hit = True
         # ---- one step of the embedded pair: its stages, the solution kept, the error
         _stages(t, y, h_try, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
+        # (sums over the stages built one pass per stage, the state innermost: vectorised)
+        for q in range(ny):
+            ynew[q] = B[0] * K[q]
+        for s in range(1, ns):
+            o = s * ny
+            for q in range(ny):
+                ynew[q] += B[s] * K[o + q]
         total = 0.0
         for q in range(ny):
-            acc = B[0] * K[q]
-            for s in range(1, ns):
-                acc += B[s] * K[s * ny + q]
-            ynew[q] = y[q] + h_try * acc
+            ynew[q] = y[q] + h_try * ynew[q]
             total += ynew[q]
         t_new = t_next if hit else t + h_try
         err = np.inf
@@ -994,12 +1006,16 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             # the right-hand side at the step's end: the error's last stage, and the next
             # step's first if the step is accepted (first same as last)
             rhs(t_new, ynew, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[ns * ny:(ns + 1) * ny])
+            est = w.ytmp  # free once the stages are done
+            for q in range(ny):
+                est[q] = E[0] * K[q]
+            for s in range(1, ns + 1):
+                o = s * ny
+                for q in range(ny):
+                    est[q] += E[s] * K[o + q]
             err = 0.0
             for q in range(ny):
-                acc = E[0] * K[q]
-                for s in range(1, ns + 1):
-                    acc += E[s] * K[s * ny + q]
-                e = h_try * acc
+                e = h_try * est[q]
                 sc = atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q]))
                 e = abs(e) / sc
                 if e > err:
