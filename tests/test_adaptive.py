@@ -43,3 +43,22 @@ def test_bs23_lands_on_every_output_time_and_agrees_with_ode3():
     assert_allclose(ds.time.values, ref.time.values, rtol=0, atol=1e-12)
     scale = np.abs(ref.coupler_force.values).max()
     assert np.abs(ds.coupler_force.values - ref.coupler_force.values).max() < 1e-6 * scale
+
+
+def test_bs23_tableau_is_scipys_rk23_and_meets_the_order_conditions():
+    from scipy.integrate import RK23
+
+    from ltdsim.integrators import BS23
+
+    # the same pair as SciPy's RK23, whose error weights are b_hat - b (ours: b - b_hat)
+    assert_allclose(BS23.A, RK23.A, rtol=0, atol=1e-15)
+    assert_allclose(BS23.b, RK23.B, rtol=0, atol=1e-15)
+    assert_allclose(BS23.c, RK23.C, rtol=0, atol=1e-15)
+    assert_allclose(BS23.e, -RK23.E, rtol=0, atol=1e-15)
+    # third order: sum b = 1, b.c = 1/2, b.c^2 = 1/3, b.A.c = 1/6
+    b, A, c = BS23.b, BS23.A, BS23.c
+    assert_allclose([b.sum(), b @ c, b @ c**2, b @ A @ c], [1, 1 / 2, 1 / 3, 1 / 6], atol=1e-15)
+    # the embedded solution over the three stages and the step's end (c = 1): 2nd order
+    b_hat = np.append(b, 0.0) - BS23.e
+    c4 = np.append(c, 1.0)
+    assert_allclose([b_hat.sum(), b_hat @ c4], [1, 1 / 2], atol=1e-15)

@@ -1,22 +1,35 @@
 """The compiled simulation loop: right-hand side, controller and Runge-Kutta stepping.
 
-Everything here runs under numba with flat arrays only (see :mod:`ltdsim.lowering` for
-the layout). The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of
-each vehicle from its initial position (m), its speed (m/s), and the internal states of
-the hysteretic draft gears (internal force N; wedge gears also the plate displacement m,
-and with an S table the impact speed m/s; see
-:mod:`ltdsim.physics.draftgear`). The discrete PID is
-sampled between steps and its output held over the step (zero-order hold), as a
-digital controller is; every continuous quantity is a pure function of ``(t, y)``, so
-any Runge-Kutta method can evaluate it any number of times per step.
+Everything here runs under numba. The kernels :func:`run` and :func:`run_adaptive`
+take a handful of named structures (``NamedTuple`` classes of arrays, below): the
+:class:`Train`, its :class:`Couplers`, the :class:`Driver`, the :class:`Controller`'s
+state, the step grid (:class:`FixedStep` or :class:`Adaptive`), the :class:`Work`
+arrays and the :class:`Outputs`. Their tables are flat arrays whose columns
+:mod:`ltdsim.lowering` lays out; the states that carry over between calls (controller,
+bs23 step control, the right-hand side's signals) are numpy records with named fields
+(``CONTROLLER``, ``STEPPER``, ``SIGNALS``), read as ``st["a_dem"]``, a form that also
+runs as plain Python (``NUMBA_DISABLE_JIT=1``). Numba compiles a kernel once per set of
+argument types and finds it in its on-disk cache by the classes' import names, so the
+classes live here at module level.
+
+The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of each
+vehicle from its initial position (m), its speed (m/s), and the internal states of the
+hysteretic draft gears (internal force N; wedge gears also the plate displacement m,
+and with an S table the impact speed m/s; see :mod:`ltdsim.physics.draftgear`), then
+the traction lags and the brake-cylinder fills. The discrete PID is sampled between
+steps and its output held over the step (zero-order hold), as a digital controller is;
+every continuous quantity is a pure function of ``(t, y)``, so any Runge-Kutta method
+can evaluate it any number of times per step.
 
 Compiling. The small helpers are inlined by numba into their callers
 (``inline="always"``). The large ones (:func:`rhs`, :func:`_gear`, :func:`_record`,
 :func:`_controller`, :func:`_brake_commands`) are compiled once each and inlined by
 LLVM instead (``forceinline=True``): numba's own inlining copies and types a function's
-whole body again at every call site, and with the right-hand side called from three
-places in :func:`run` and four in :func:`run_adaptive` their first compile took about
-140 s and 200 s of CPU (now about 17 s each, and the second shares most of the first).
+whole body again at every call site, and with the right-hand side then called from
+three places in :func:`run` and four in :func:`run_adaptive` their first compile took
+about 140 s and 200 s of CPU (now about 17 s each, and the second shares most of the
+first). Both kernels take their Runge-Kutta stages from one routine, :func:`_stages`,
+and sample the controller on one clock, :func:`_sample_due`.
 The compiled kernels hold no calls to these functions: the machine code does the same
 work as before. No argument of these functions may be a constant at a call site either:
 numba compiles a function once per set of argument types, and a constant such as ``0``
@@ -25,6 +38,8 @@ rather than an offset ``0``).
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -45,7 +60,6 @@ from ltdsim.lowering import (
     D_BTAUR,
     D_AW,
     D_BVS,
-    D_EVERY,
     D_FILT,
     D_INT,
     D_KD,
@@ -160,15 +174,167 @@ OK, NONFINITE, EVENTS_FULL = 0, 1, 2
 #: columns of the recorded scalar signals
 S_TRACTION, S_VREF, S_ADHESION, S_ADEM, S_DEMAND, S_BRAKE = range(6)
 N_SCALARS = 6
-#: length of the right-hand side's signal vector (traction, reference speed, demand,
-#: total resistance)
-N_SIG = 4
-#: controller state: PID integrator and filter (0, 1), held demand m/s^2, last reference
-#: m/s, number of brake commands issued, last commanded level, next scheduled command,
-#: next position trigger, next controller sample (bs23)
-(C_PI, C_PF, C_ADEM, C_VREF, C_NEV, C_LEVEL, C_NEXT_SCHED, C_NEXT_POS,
- C_NEXT_SAMPLE) = range(9)
-N_CTRL = 9
+#: columns of the peak-force table, one row per coupler: largest force N, smallest
+#: force N, time of the largest s, time of the smallest s
+PK_MAX, PK_MIN, PK_TMAX, PK_TMIN = range(4)
+N_PEAKS = 4
+#: columns of the brake-command store, one row per command: time issued s, level 0-1
+EV_TIME, EV_LEVEL = range(2)
+
+#: signals of the last right-hand-side evaluation (one record, in :class:`Work`):
+#: total traction force N, traction demand before the traction-curve limits N, total
+#: running resistance N
+SIGNALS = np.dtype([("traction", np.float64), ("demand", np.float64),
+                    ("resistance", np.float64)])
+#: controller state (one record, in :class:`Controller`): demanded acceleration held
+#: between samples m/s^2, last reference speed m/s, brake commands issued, last
+#: commanded brake level (0-1), next scheduled brake command and next position trigger
+#: (indices into their lists), next controller sample (count of samples, bs23)
+CONTROLLER = np.dtype([("a_dem", np.float64), ("v_ref", np.float64),
+                       ("n_events", np.int64), ("level", np.float64),
+                       ("next_scheduled", np.int64), ("next_position", np.int64),
+                       ("next_sample", np.int64)])
+#: bs23 state carried over between calls of :func:`run_adaptive` (one record): step
+#: size s, accepted and rejected steps, time of the current state s, error of the last
+#: accepted step (scaled, 1 = at the tolerance), whether the last step was rejected
+STEPPER = np.dtype([("h", np.float64), ("accepted", np.int64), ("rejected", np.int64),
+                    ("t", np.float64), ("last_error", np.float64),
+                    ("last_rejected", np.bool_)])
+
+
+class Train(NamedTuple):
+    """The lowered train and track (columns in :mod:`ltdsim.lowering`)."""
+
+    veh: np.ndarray  # (n, N_VCOL) vehicles, V_* columns
+    inv_m: np.ndarray  # (n,) inverse vehicle masses, 1/kg
+    cons: np.ndarray  # (consists, N_KCOL) locomotive consists, K_* columns
+    trac: np.ndarray  # traction and speed-controller constants, T_* slots
+    track_pos: np.ndarray  # start of each track segment, m
+    track_grade: np.ndarray  # gradient on each segment, rise/run
+    track_curv: np.ndarray  # curvature on each segment, 1/m
+    curve_h: float  # curve-resistance constant, - (physics.resistance.curve_resistance)
+    tables: np.ndarray  # flat store of tables (gear curves, friction, notches, schedules)
+
+
+class Couplers(NamedTuple):
+    """The lowered couplers, coupler j joining vehicles j and j + 1."""
+
+    model: np.ndarray  # (n - 1,) int64 model codes, C_LINEAR ... C_TABLE
+    par: np.ndarray  # (n - 1, N_CCOL) parameters, P_* columns (SI)
+
+
+class Driver(NamedTuple):
+    """The driver: controller and brake constants and the driver's profile."""
+
+    par: np.ndarray  # D_* slots (mode, PID, brake control)
+    prof_t: np.ndarray  # times of the profile, s
+    prof_y: np.ndarray  # speed m/s, force N or notch (0-8), by mode
+
+
+class Controller(NamedTuple):
+    """What the driver has done so far; updated in place, carried between calls."""
+
+    state: np.ndarray  # one CONTROLLER record
+    pid: np.ndarray  # (2,) PID integrator and derivative-filter states
+    events: np.ndarray  # (MAX_EVENTS, 2) brake commands issued, EV_* columns
+
+
+class FixedStep(NamedTuple):
+    """A fixed-step explicit Runge-Kutta method and the run's step grid."""
+
+    dt: float  # step, s
+    n_steps: int  # steps of the whole run
+    record_every: int  # steps between records
+    A: np.ndarray  # (stages, stages) Butcher tableau
+    b: np.ndarray  # (stages,) weights
+    c: np.ndarray  # (stages,) nodes
+
+
+class Adaptive(NamedTuple):
+    """An embedded Runge-Kutta pair under error control (bs23,
+    :data:`ltdsim.integrators.BS23`) and the run's record grid."""
+
+    out_dt: float  # time between records, s
+    n_rec: int  # records of the whole run
+    h_max: float  # largest step, s
+    atol: np.ndarray  # (ny,) absolute error scale per state element (units of the state)
+    rtol: np.ndarray  # (ny,) relative tolerance per state element, -
+    A: np.ndarray  # (stages, stages) Butcher tableau
+    b: np.ndarray  # (stages,) weights of the solution kept
+    c: np.ndarray  # (stages,) nodes
+    e: np.ndarray  # (stages + 1,) error weights, the last for the step's end (FSAL)
+
+
+class Work(NamedTuple):
+    """Scratch arrays of a kernel call, owned by the caller (see :func:`make_work`)."""
+
+    K: np.ndarray  # stage derivatives, stage s at K[s * ny:(s + 1) * ny] (bs23: 4 stages,
+    #                the last the right-hand side at the step's end)
+    ytmp: np.ndarray  # (ny,) stage state, then the step's increment
+    ynew: np.ndarray  # (ny,) the candidate state of a bs23 step
+    force: np.ndarray  # (max(n - 1, 1),) coupler forces, N (+ tension)
+    defl: np.ndarray  # (max(n - 1, 1),) coupler deflections, m (+ draft)
+    res: np.ndarray  # (n,) running resistance plus air brake per vehicle, N
+    bforce: np.ndarray  # (n,) air-brake force per vehicle, N (+ opposing forward motion)
+    fcons: np.ndarray  # (consists,) force of each locomotive consist, N
+    sig: np.ndarray  # one SIGNALS record
+    hints: np.ndarray  # int64 search cursors: [0, n) track, n driver, n + 1 speed profile
+
+
+class Outputs(NamedTuple):
+    """Records (one row per record time) and the peak forces, written by the kernels."""
+
+    x: np.ndarray  # (records, n) track position, m
+    v: np.ndarray  # (records, n) speed, m/s
+    a: np.ndarray  # (records, n) acceleration, m/s^2
+    d: np.ndarray  # (records, n - 1) coupler deflection, m
+    f: np.ndarray  # (records, n - 1) coupler force, N
+    s: np.ndarray  # (records, N_SCALARS) scalar signals, S_* columns
+    b: np.ndarray  # (records, n or 0) air-brake force, N
+    p: np.ndarray  # (records, n or 0) brake-cylinder fill, -
+    c: np.ndarray  # (records, consists or 0) force of each consist, N
+    peaks: np.ndarray  # (n - 1, N_PEAKS) peak coupler forces over every step, PK_* columns
+
+
+def make_train(low) -> Train:
+    """:class:`Train` of a :class:`~ltdsim.lowering.Lowered` scenario."""
+    return Train(veh=low.veh, inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
+                 track_pos=low.track_pos, track_grade=low.track_grade,
+                 track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab)
+
+
+def make_couplers(low) -> Couplers:
+    """:class:`Couplers` of a :class:`~ltdsim.lowering.Lowered` scenario."""
+    return Couplers(model=low.cpl_model, par=low.cpl)
+
+
+def make_driver(low) -> Driver:
+    """:class:`Driver` of a :class:`~ltdsim.lowering.Lowered` scenario."""
+    return Driver(par=low.drv, prof_t=low.prof_t, prof_y=low.prof_y)
+
+
+def make_controller(events: np.ndarray) -> Controller:
+    """A controller that has done nothing yet, issuing its brake commands into
+    ``events`` (``(max commands, 2)``, ``EV_*`` columns)."""
+    return Controller(state=np.zeros(1, dtype=CONTROLLER), pid=np.zeros(2), events=events)
+
+
+def make_stepper(h0: float) -> np.ndarray:
+    """bs23 state before the first step: first step ``h0`` (s), no steps taken."""
+    st = np.zeros(1, dtype=STEPPER)
+    st[0]["h"] = h0
+    st[0]["last_error"] = 1.0
+    return st
+
+
+def make_work(n: int, ny: int, stages: int, n_consists: int) -> Work:
+    """:class:`Work` for ``n`` vehicles, a state of ``ny`` elements, ``stages`` stage
+    derivatives and ``n_consists`` locomotive consists."""
+    nc = max(n - 1, 1)
+    return Work(K=np.zeros(stages * ny), ytmp=np.zeros(ny), ynew=np.zeros(ny),
+                force=np.zeros(nc), defl=np.zeros(nc), res=np.zeros(n), bforce=np.zeros(n),
+                fcons=np.zeros(n_consists), sig=np.zeros(1, dtype=SIGNALS),
+                hints=np.zeros(n + 2 + n_consists, dtype=np.int64))
 
 
 @njit(cache=True, inline="always")
@@ -352,27 +518,36 @@ def brake_target(t, delay, events, n_events):
     delay ``delay`` (s) asks for at time ``t`` (s); 0 before any command arrives."""
     e = n_events - 1
     while e >= 0:
-        if events[e, 0] + delay <= t:
-            return events[e, 1]
+        if events[e, EV_TIME] + delay <= t:
+            return events[e, EV_LEVEL]
         e -= 1
     return 0.0
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
-        trac, drv, prof_t, prof_y, events, n_events, dy, force, defl, res, bforce, fcons,
-        sig, hints):
+def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements).
 
-    Also fills ``force``/``defl`` (coupler force N, deflection m), ``res`` (resistance
-    per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing forward
-    motion), ``fcons`` (force of each locomotive consist, N) and ``sig[0:4]`` (total
-    traction force N, speed of the reference vehicle m/s, traction demand before the
-    traction-curve limits N, total resistance N). ``hints`` holds search cursors
-    (``[0, n)`` track, ``n`` driver profile, ``n + 1`` speed profile, ``n + 2 + c`` the
-    own notch profile of consist c); they change only how fast a lookup is, never its
-    result.
+    ``tr``, ``cp``, ``dr``: :class:`Train`, :class:`Couplers`, :class:`Driver`;
+    ``a_dem`` the demanded acceleration held by the speed controller (m/s^2);
+    ``events[:n_events]`` the brake commands issued so far. Also fills, in the
+    :class:`Work` ``w``: ``force``/``defl`` (coupler force N, deflection m), ``res``
+    (resistance per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing
+    forward motion), ``fcons`` (force of each locomotive consist, N) and the signals
+    ``sig`` (total traction force N, traction demand before the traction-curve limits
+    N, total resistance N). ``w.hints`` holds search cursors (``[0, n)`` track, ``n``
+    driver profile, ``n + 1`` speed profile); they change only how fast a lookup is,
+    never its result.
     """
+    veh = tr.veh
+    cons = tr.cons
+    trac = tr.trac
+    ctab = tr.tables
+    drv = dr.par
+    cpl = cp.par
+    hints = w.hints
+    res = w.res
+    force = w.force
     n = veh.shape[0]
     g = trac[T_G]
     rtot = 0.0
@@ -381,10 +556,10 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         p = veh[i, V_P0] + y[i]
         wm = veh[i, V_WMASS]
         r = davis_force(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DIV0])
-        kt = _segment(tpos, p, hints[i])
+        kt = _segment(tr.track_pos, p, hints[i])
         hints[i] = kt
-        r += grade_resistance(wm, tgrade[kt], g)
-        r += curve_resistance(v, wm, tcurv[kt], curve_h, g)
+        r += grade_resistance(wm, tr.track_grade[kt], g)
+        r += curve_resistance(v, wm, tr.track_curv[kt], tr.curve_h, g)
         rtot += r
         res[i] = r
     if drv[D_BFULLSUM] > 0.0:  # air brakes: each fill follows the command that has arrived
@@ -404,16 +579,16 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
                 shoe = fill * veh[i, V_BSHOE]
                 fb = -brake_retardation(v, fill * veh[i, V_BFULL]
                                         * shoe_friction(i, v, shoe, veh, ctab), vs)
-            bforce[i] = fb
+            w.bforce[i] = fb
             res[i] += fb
     mode = drv[D_MODE]
     fd = 0.0
     if mode == MODE_SPEED:
         fd = a_dem * trac[T_MTOT] + trac[T_FF] * rtot
     elif mode == MODE_FORCE:
-        fd = _interp(prof_t, prof_y, t, hints, n)
+        fd = _interp(dr.prof_t, dr.prof_y, t, hints, n)
     else:
-        fd = _held(prof_t, prof_y, t, hints, n) / 8.0  # notch fraction
+        fd = _held(dr.prof_t, dr.prof_y, t, hints, n) / 8.0  # notch fraction
     ftot = 0.0
     fdem = 0.0
     for c in range(cons.shape[0]):
@@ -442,18 +617,20 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
         fade = cons[c, K_DBFADE]
         if f < 0.0 and fade > 0.0:  # dynamic braking dies away as the motors slow
             f *= min(max(vc / fade, 0.0), 1.0)
-        fcons[c] = f
+        w.fcons[c] = f
         ftot += f
-    sig[0] = ftot
-    sig[1] = y[n + int(trac[T_REF])]
-    sig[2] = fdem
-    sig[3] = rtot
+    sig = w.sig[0]
+    sig["traction"] = ftot
+    sig["demand"] = fdem
+    sig["resistance"] = rtot
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
-        f = coupler_force(j, cpl_model[j], d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
+        f = coupler_force(j, cp.model[j], d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
         force[j] = f
-        defl[j] = d
+        w.defl[j] = d
+    inv_m = tr.inv_m
+    fcons = w.fcons
     for i in range(n):
         # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
         f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
@@ -466,20 +643,23 @@ def rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv
 
 
 @njit(cache=True, inline="always")
-def _push_event(events, ctrl, t, level):
-    """Append brake command ``(t, level)``; False when the event store is full."""
-    m = int(ctrl[C_NEV])
+def _push_event(ctl, t, level):
+    """Append brake command ``(t, level)`` to the :class:`Controller` ``ctl``; False
+    when its event store is full."""
+    st = ctl.state[0]
+    events = ctl.events
+    m = st["n_events"]
     if m >= events.shape[0]:
         return False
-    events[m, 0] = t
-    events[m, 1] = level
-    ctrl[C_NEV] = m + 1
-    ctrl[C_LEVEL] = level
+    events[m, EV_TIME] = t
+    events[m, EV_LEVEL] = level
+    st["n_events"] = m + 1
+    st["level"] = level
     return True
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig, sampled):
+def _brake_commands(t, horizon, y, ctl, tr, dr, w, sampled):
     """Issue the brake commands due at the start of a step at ``t`` (s).
 
     Scheduled applications with times before ``t + horizon`` are issued at their own
@@ -488,33 +668,39 @@ def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig
     exceeds the dynamic brake. Returns -1 if the event store overflowed, else the
     number of commands issued.
     """
+    st = ctl.state[0]
+    drv = dr.par
+    ctab = tr.tables
+    veh = tr.veh
     issued = 0
     m = int(drv[D_BSLEN])
     if m > 0:
         o = int(drv[D_BSOFF])
-        k = int(ctrl[C_NEXT_SCHED])
+        k = st["next_scheduled"]
         while k < m and ctab[o + k] < t + horizon:
-            if not _push_event(events, ctrl, ctab[o + k], ctab[o + m + k]):
+            if not _push_event(ctl, ctab[o + k], ctab[o + m + k]):
                 return -1
             issued += 1
             k += 1
-        ctrl[C_NEXT_SCHED] = k
+        st["next_scheduled"] = k
     m = int(drv[D_BPLEN])
     if m > 0:
         o = int(drv[D_BPOFF])
-        k = int(ctrl[C_NEXT_POS])
+        k = st["next_position"]
         lead = veh[0, V_P0] + y[0]
         while k < m and ctab[o + k] <= lead:
-            if not _push_event(events, ctrl, t, ctab[o + m + k]):
+            if not _push_event(ctl, t, ctab[o + m + k]):
                 return -1
             issued += 1
             k += 1
-        ctrl[C_NEXT_POS] = k
+        st["next_position"] = k
     if sampled and drv[D_BCTRL] > 0.0:
+        cons = tr.cons
+        trac = tr.trac
         n = veh.shape[0]
         g = trac[T_G]
         # braking force still wanted after the dynamic brake of every consist
-        want = -(ctrl[C_ADEM] * trac[T_MTOT] + trac[T_FF] * sig[3])
+        want = -(st["a_dem"] * trac[T_MTOT] + trac[T_FF] * w.sig[0]["resistance"])
         for c in range(cons.shape[0]):
             vc = y[n + int(cons[c, K_VEH])]
             lim = traction_limit(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
@@ -529,8 +715,8 @@ def _brake_commands(t, horizon, y, ctrl, events, veh, cons, drv, trac, ctab, sig
             level = min(want / cap, 1.0) if cap > 0.0 else 1.0
         step = drv[D_BSTEP]
         q = min(round(level / step) * step, 1.0)
-        if q != ctrl[C_LEVEL]:
-            if not _push_event(events, ctrl, t, q):
+        if q != st["level"]:
+            if not _push_event(ctl, t, q):
                 return -1
             issued += 1
     return issued
@@ -546,22 +732,16 @@ def expected_shoe_friction(v, drv, veh, ctab):
     return 0.0
 
 
-def work_size(n: int, ny: int, stages: int, n_consists: int = 1) -> int:
-    """Length of the float work array :func:`run` and :func:`run_adaptive` need for
-    ``n`` vehicles, a state of ``ny`` elements and ``stages`` stage derivatives."""
-    return stages * ny + 2 * ny + 2 * max(n - 1, 1) + 3 * n + n_consists + N_SIG
-
-
 @njit(cache=True, inline="always")
 def _fold_peak(peaks, j, f, t):
-    """Fold force ``f`` (N) of coupler ``j`` at time ``t`` (s) into ``peaks[j] =
-    (largest N, smallest N, time of the largest s, time of the smallest s)``."""
-    if f > peaks[j, 0]:
-        peaks[j, 0] = f
-        peaks[j, 2] = t
-    if f < peaks[j, 1]:
-        peaks[j, 1] = f
-        peaks[j, 3] = t
+    """Fold force ``f`` (N) of coupler ``j`` at time ``t`` (s) into row j of the peak
+    table (``PK_*`` columns)."""
+    if f > peaks[j, PK_MAX]:
+        peaks[j, PK_MAX] = f
+        peaks[j, PK_TMAX] = t
+    if f < peaks[j, PK_MIN]:
+        peaks[j, PK_MIN] = f
+        peaks[j, PK_TMIN] = t
 
 
 @njit(cache=True, inline="always")
@@ -572,192 +752,197 @@ def _track_peaks(force, peaks, nc, t):
 
 
 @njit(cache=True, inline="always")
-def _work_views(work, ns, ny, n, nc, nk, veh):
-    """Split the caller's ``work`` array (see :func:`work_size`) into the kernels' work
-    arrays: ``ns`` stage derivatives (stage s at ``K[s * ny:(s + 1) * ny]``), two state
-    buffers, coupler forces and deflections, resistances, inverse masses (filled here),
-    brake forces, consist forces and the signal vector. The kernels are compiled without
-    NRT, so views cost no reference counting in the loop."""
-    K = work[0:ns * ny]
-    o = ns * ny
-    ytmp = work[o:o + ny]
-    o += ny
-    ynew = work[o:o + ny]
-    o += ny
-    force = work[o:o + nc]
-    o += nc
-    defl = work[o:o + nc]
-    o += nc
-    res = work[o:o + n]
-    o += n
-    inv_m = work[o:o + n]
-    o += n
-    bforce = work[o:o + n]
-    o += n
-    fcons = work[o:o + nk]
-    o += nk
-    sig = work[o:o + N_SIG]
-    for i in range(n):
-        inv_m[i] = 1.0 / veh[i, V_MASS]
-    return K, ytmp, ynew, force, defl, res, inv_m, bforce, fcons, sig
+def _sample_due(t, st, ts, tol):
+    """The controller's clock, the same for both kernels: True when its next sample,
+    at ``st["next_sample"] * ts`` (s), is due at ``t`` (s) within ``tol`` (s), and the
+    clock then moves on to the sample after it."""
+    m = st["next_sample"]
+    if t >= m * ts - tol:
+        st["next_sample"] = m + 1
+        return True
+    return False
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _controller(t, y, n, ctrl, prof_t, prof_y, hints, trac, drv, sig):
-    """One controller sample at ``t`` for a train of ``n`` vehicles: the PID's demanded
-    acceleration, clipped to the acceleration limits. With anti-windup the integrator
-    holds (conditional integration) while the demand is clipped, or the traction drives
-    are at their limits (``sig``: applied and demanded force of the last evaluation), in
-    the direction the error pushes."""
+def _stages(t, y, h, A, C, ns, a_dem, n_events, tr, cp, dr, events, w):
+    """Stages 2 to ``ns`` of an explicit Runge-Kutta step of size ``h`` (s) from
+    ``(t, y)``, given stage 1 at ``w.K[0:ny]``: stage s is the right-hand side at
+    ``t + C[s] h`` and ``y + h sum_j A[s, j] K_j``, written to ``w.K[s * ny:(s + 1) *
+    ny]``. The one stage routine of :func:`run` and :func:`run_adaptive`."""
+    K = w.K
+    ytmp = w.ytmp
+    ny = y.shape[0]
+    for s in range(1, ns):
+        # (loops over the state innermost, one pass per nonzero coefficient: vectorised)
+        first = True
+        for j in range(s):
+            wt = h * A[s, j]
+            if wt != 0.0:
+                o = j * ny
+                if first:
+                    for q in range(ny):
+                        ytmp[q] = y[q] + wt * K[o + q]
+                    first = False
+                else:
+                    for q in range(ny):
+                        ytmp[q] += wt * K[o + q]
+        if first:
+            for q in range(ny):
+                ytmp[q] = y[q]
+        rhs(t + C[s] * h, ytmp, a_dem, n_events, tr, cp, dr, events, w,
+            K[s * ny:(s + 1) * ny])
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _controller(t, y, ctl, tr, dr, w):
+    """One controller sample at ``t``: the PID's demanded acceleration, clipped to the
+    acceleration limits. With anti-windup the integrator holds (conditional
+    integration) while the demand is clipped, or the traction drives are at their
+    limits (``w.sig``: applied and demanded force of the last evaluation), in the
+    direction the error pushes."""
+    drv = dr.par
+    trac = tr.trac
+    n = tr.veh.shape[0]
+    st = ctl.state[0]
+    pid = ctl.pid
     ts = drv[D_TS]
-    vref = _interp(prof_t, prof_y, t, hints, n + 1)
+    vref = _interp(dr.prof_t, dr.prof_y, t, w.hints, n + 1)
     e = vref - y[n + int(trac[T_REF])]
-    u = pid_step(e, ctrl, drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], ts, int(drv[D_INT]),
+    u = pid_step(e, pid, drv[D_KP], drv[D_KI], drv[D_KD], drv[D_N], ts, int(drv[D_INT]),
                  int(drv[D_FILT]))
     uc = min(max(u, -trac[T_DMAX]), trac[T_AMAX])
     if drv[D_AW] > 0.0:
+        sig = w.sig[0]
         clipped = (u - uc) * e > 0.0
-        saturated = abs(sig[2]) > abs(sig[0]) * (1.0 + 1e-9) and sig[2] * e > 0.0
+        saturated = (abs(sig["demand"]) > abs(sig["traction"]) * (1.0 + 1e-9)
+                     and sig["demand"] * e > 0.0)
         if clipped or saturated:
-            ctrl[C_PI] -= ts * e
-    ctrl[C_ADEM] = uc
-    ctrl[C_VREF] = vref
+            pid[0] -= ts * e  # the integrator state (physics.control.pid_step)
+    st["a_dem"] = uc
+    st["v_ref"] = vref
 
 
 @njit(cache=True, _nrt=False)
-def run(y, ctrl, k_start, k_stop, n_steps, record_every, dt, A, B, C,
-        veh, cons, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac, drv, prof_t,
-        prof_y, events, out_x, out_v, out_a, out_d, out_f, out_s, out_b, out_p, out_c, peaks,
-        work, hints):
+def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     """Advance ``y`` from step ``k_start`` to ``k_stop`` (time ``k dt``), recording.
 
-    Records the state at every step that is a multiple of ``record_every`` (record
-    ``k // record_every``) and, when ``k_stop == n_steps``, the final state.
-    ``y``, ``ctrl`` (controller state, see ``C_*``) and ``events`` (brake commands,
-    ``(time s, level)`` rows) are updated in place so a run can be split into chunks;
-    ``peaks[j] = (largest N, smallest N, their times s)`` for coupler j over every step.
-
-    ``work`` is a float array of :func:`work_size` elements and ``hints`` an int64 array
-    of ``n + 2 + consists`` zeros (search cursors), both owned by the caller.
+    ``ctl`` :class:`Controller`, ``fs`` :class:`FixedStep`, ``tr`` :class:`Train`,
+    ``cp`` :class:`Couplers`, ``dr`` :class:`Driver`, ``w`` :class:`Work` (its arrays
+    sized by :func:`make_work` with ``fs``'s stages), ``out`` :class:`Outputs`.
+    Records the state at every step that is a multiple of ``fs.record_every`` (record
+    ``k // record_every``) and, when ``k_stop == fs.n_steps``, the final state. ``y``
+    and ``ctl`` are updated in place so a run can be split into chunks; ``out.peaks``
+    holds the peak coupler forces over every step.
 
     Returns ``(status, k)``: ``OK`` and ``k_stop``; ``NONFINITE`` and the step whose
     result was not finite (``y`` then holds that state); ``EVENTS_FULL`` and the step.
     """
-    n = veh.shape[0]
+    A = fs.A
+    B = fs.b
+    C = fs.c
+    dt = fs.dt
+    record_every = fs.record_every
+    drv = dr.par
+    st = ctl.state[0]
+    K = w.K
+    ytmp = w.ytmp
+    force = w.force
+    peaks = out.peaks
+    n = tr.veh.shape[0]
     ny = y.shape[0]
     ns = B.shape[0]
-    nc = max(n - 1, 1)
-    nk = cons.shape[0]
-    K, ytmp, _, force, defl, res, inv_m, bforce, fcons, sig = _work_views(
-        work, ns, ny, n, nc, nk, veh)
     speed_mode = drv[D_MODE] == MODE_SPEED
-    every = int(drv[D_EVERY])
+    ts = drv[D_TS]
+    half = 0.5 * dt  # (sample times fall on steps: ts is a whole number of steps)
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
-    # counters instead of k % every: integer division is slow in the loop
-    c_ctrl = k_start % every
+    # a counter instead of k % record_every: integer division is slow in the loop
     c_rec = k_start % record_every
     for k in range(k_start, k_stop):
         t = k * dt
-        sampled = speed_mode and c_ctrl == 0
+        sampled = speed_mode and _sample_due(t, st, ts, half)
         if sampled:
-            _controller(t, y, n, ctrl, prof_t, prof_y, hints, trac, drv, sig)
+            _controller(t, y, ctl, tr, dr, w)
         if braking:
-            if _brake_commands(t, dt, y, ctrl, events, veh, cons, drv, trac, ctab, sig,
-                               sampled) < 0:
+            if _brake_commands(t, dt, y, ctl, tr, dr, w, sampled) < 0:
                 return EVENTS_FULL, k
-        a_dem = ctrl[C_ADEM]
-        n_ev = int(ctrl[C_NEV])
+        a_dem = st["a_dem"]
+        n_ev = st["n_events"]
         # stage 1 is the right-hand side at (t_k, y_k): record it when due
-        rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h,
-            trac, drv, prof_t, prof_y, events, n_ev, K[0:ny], force, defl, res, bforce, fcons,
-            sig, hints)
+        rhs(t, y, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
         _track_peaks(force, peaks, n - 1, t)
         if c_rec == 0:
-            _record(k // record_every, t, y, K, force, defl, bforce, fcons, sig, a_dem,
-                    ctrl[C_LEVEL], speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x,
-                    out_v, out_a, out_d, out_f, out_s, out_b, out_p, out_c)
-        for s in range(1, ns):
-            for q in range(ny):
-                ytmp[q] = y[q]
-            for j in range(s):
-                w = dt * A[s, j]
-                if w != 0.0:
-                    o = j * ny
-                    for q in range(ny):
-                        ytmp[q] += w * K[o + q]
-            rhs(t + C[s] * dt, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
-                tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev,
-                K[s * ny:(s + 1) * ny], force, defl, res, bforce, fcons, sig, hints)
+            _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
+                    out)
+        _stages(t, y, dt, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
         # y += dt * sum_s b_s K_s, increment summed first for accuracy
         for q in range(ny):
             ytmp[q] = 0.0
         for s in range(ns):
-            w = dt * B[s]
+            wt = dt * B[s]
             o = s * ny
             for q in range(ny):
-                ytmp[q] += w * K[o + q]
+                ytmp[q] += wt * K[o + q]
         total = 0.0
         for q in range(ny):
             y[q] += ytmp[q]
             total += y[q]
         if not (total - total == 0.0):
             return NONFINITE, k + 1
-        c_ctrl += 1
-        if c_ctrl == every:
-            c_ctrl = 0
         c_rec += 1
         if c_rec == record_every:
             c_rec = 0
-    if k_stop == n_steps:
+    if k_stop == fs.n_steps:
         t = k_stop * dt
-        rhs(t, y, ctrl[C_ADEM], veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
-            curve_h, trac, drv, prof_t, prof_y, events, int(ctrl[C_NEV]), K[0:ny], force, defl,
-            res, bforce, fcons, sig, hints)
+        rhs(t, y, st["a_dem"], st["n_events"], tr, cp, dr, ctl.events, w, K[0:ny])
         _track_peaks(force, peaks, n - 1, t)
-        _record(k_stop // record_every, t, y, K, force, defl, bforce, fcons, sig, ctrl[C_ADEM],
-                ctrl[C_LEVEL],
-                speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x, out_v, out_a, out_d,
-                out_f, out_s, out_b, out_p, out_c)
+        _record(k_stop // record_every, t, y, K, st["a_dem"], st["level"], speed_mode, tr,
+                dr, w, out)
     return OK, k_stop
 
 
-#: Bogacki-Shampine 3(2): third-order weights and the error weights (3rd - 2nd order)
-_BS_B = (2.0 / 9.0, 1.0 / 3.0, 4.0 / 9.0)
-_BS_E = (-5.0 / 72.0, 1.0 / 12.0, 1.0 / 9.0, -1.0 / 8.0)
-
-
 @njit(cache=True, _nrt=False)
-def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, rtol,
-                 veh, cons, cpl_model, cpl, ctab, tpos, tgrade, tcurv, curve_h, trac, drv,
-                 prof_t, prof_y, events, out_x, out_v, out_a, out_d, out_f, out_s, out_b,
-                 out_p, out_c, peaks, work, hints):
-    """Advance ``y`` with the embedded Bogacki-Shampine 3(2) pair under error control,
-    from record ``r_start`` (time ``r_start * out_dt``) to record ``r_stop``.
+def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
+    """Advance ``y`` with an embedded Runge-Kutta pair (the Bogacki-Shampine 3(2) of
+    ``ad``) under error control, from record ``r_start`` (time ``r_start * ad.out_dt``)
+    to record ``r_stop``.
 
-    Every step keeps the error estimate ``|y3 - y2|`` within ``atol + rtol |y|``
-    element by element (max norm); steps end exactly on record times, controller
-    samples and scheduled brake commands. ``astate = [step size s, accepted steps,
-    rejected steps, time of the current state s, last accepted error, last step
-    rejected (0/1)]`` carries over between calls. Records
+    ``ctl`` :class:`Controller`, ``stepper`` one ``STEPPER`` record (array of one)
+    carried over between calls, ``ad`` :class:`Adaptive`; the others as in :func:`run`
+    (``w`` sized for the pair's stages plus one). Every step keeps the error estimate
+    ``|y3 - y2|`` within ``atol + rtol |y|`` element by element (max norm); steps end
+    exactly on record times, controller samples and scheduled brake commands. Records
     ``r_start`` (when it is 0) to ``r_stop - 1``, and ``n_rec - 1`` when ``r_stop``
     reaches ``n_rec``.
 
     Returns ``(status, t)``: ``OK``; ``NONFINITE`` when no step size down to 1e-12 s
     gives a finite state (``y`` holds the last good state at ``t``); ``EVENTS_FULL``.
     """
-    n = veh.shape[0]
+    drv = dr.par
+    st = ctl.state[0]
+    sp = stepper[0]
+    A = ad.A
+    B = ad.b
+    C = ad.c
+    E = ad.e
+    ns = B.shape[0]
+    atol = ad.atol
+    rtol = ad.rtol
+    out_dt = ad.out_dt
+    n_rec = ad.n_rec
+    K = w.K
+    ynew = w.ynew
+    force = w.force
+    peaks = out.peaks
+    ctab = tr.tables
+    n = tr.veh.shape[0]
     ny = y.shape[0]
-    nc = max(n - 1, 1)
-    nk = cons.shape[0]
-    K, ytmp, ynew, force, defl, res, inv_m, bforce, fcons, sig = _work_views(
-        work, 4, ny, n, nc, nk, veh)
     speed_mode = drv[D_MODE] == MODE_SPEED
     ts = drv[D_TS]
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
     m_sched = int(drv[D_BSLEN])
     o_sched = int(drv[D_BSOFF])
-    h = astate[0]
-    t = astate[3]
+    h = sp["h"]
+    t = sp["t"]
     r = r_start
     t_last = (n_rec - 1) * out_dt
     t_stop = min(r_stop, n_rec - 1) * out_dt
@@ -765,77 +950,72 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
     fresh = True  # K[0:ny] must be (re)computed at (t, y)
     while True:
         # ---- driver: controller sample, brake commands (at the start of the step)
-        sampled = False
-        if speed_mode:
-            m = ctrl[C_NEXT_SAMPLE]
-            if t >= m * ts - eps:
-                _controller(t, y, n, ctrl, prof_t, prof_y, hints, trac, drv, sig)
-                ctrl[C_NEXT_SAMPLE] = m + 1.0
-                sampled = True
-                fresh = True
+        sampled = speed_mode and _sample_due(t, st, ts, eps)
+        if sampled:
+            _controller(t, y, ctl, tr, dr, w)
+            fresh = True
         if braking:
-            issued = _brake_commands(t, eps, y, ctrl, events, veh, cons, drv, trac, ctab, sig,
-                                     sampled)
+            issued = _brake_commands(t, eps, y, ctl, tr, dr, w, sampled)
             if issued < 0:
-                astate[0], astate[3] = h, t
+                sp["h"] = h
+                sp["t"] = t
                 return EVENTS_FULL, t
             if issued > 0:
                 fresh = True
-        a_dem = ctrl[C_ADEM]
-        n_ev = int(ctrl[C_NEV])
+        a_dem = st["a_dem"]
+        n_ev = st["n_events"]
         if fresh:
-            rhs(t, y, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade, tcurv,
-                curve_h, trac, drv, prof_t, prof_y, events, n_ev, K[0:ny], force, defl, res,
-                bforce, fcons, sig, hints)
+            rhs(t, y, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
             _track_peaks(force, peaks, n - 1, t)
             fresh = False
         # ---- record when on a record time
         if r < n_rec and abs(t - r * out_dt) <= eps:
             if r < r_stop or r == n_rec - 1:
-                _record(r, t, y, K, force, defl, bforce, fcons, sig, a_dem, ctrl[C_LEVEL],
-                        speed_mode, prof_t, prof_y, hints, trac, veh, cons, out_x, out_v,
-                        out_a, out_d, out_f, out_s, out_b, out_p, out_c)
+                _record(r, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w, out)
             r += 1
         if t >= t_stop - eps or t >= t_last - eps:
             break
         # ---- the next step ends no later than the next record, sample or command
         t_next = r * out_dt
         if speed_mode:
-            t_next = min(t_next, ctrl[C_NEXT_SAMPLE] * ts)
-        k = int(ctrl[C_NEXT_SCHED])
+            t_next = min(t_next, st["next_sample"] * ts)
+        k = st["next_scheduled"]
         if k < m_sched:
             t_next = min(t_next, ctab[o_sched + k])
         hit = False
-        h_try = min(h, h_max)
+        h_try = min(h, ad.h_max)
         if t + h_try >= t_next - eps:
             h_try = t_next - t
             hit = True
-        # ---- one Bogacki-Shampine step
+        # ---- one step of the embedded pair: its stages, the solution kept, the error
+        _stages(t, y, h_try, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
+        # (sums over the stages built one pass per stage, the state innermost: vectorised)
         for q in range(ny):
-            ytmp[q] = y[q] + 0.5 * h_try * K[q]
-        rhs(t + 0.5 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
-            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K[ny:2 * ny],
-            force, defl, res, bforce, fcons, sig, hints)
-        for q in range(ny):
-            ytmp[q] = y[q] + 0.75 * h_try * K[ny + q]
-        rhs(t + 0.75 * h_try, ytmp, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos,
-            tgrade, tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev,
-            K[2 * ny:3 * ny], force, defl, res, bforce, fcons, sig, hints)
+            ynew[q] = B[0] * K[q]
+        for s in range(1, ns):
+            o = s * ny
+            for q in range(ny):
+                ynew[q] += B[s] * K[o + q]
         total = 0.0
         for q in range(ny):
-            ynew[q] = y[q] + h_try * (_BS_B[0] * K[q] + _BS_B[1] * K[ny + q]
-                                      + _BS_B[2] * K[2 * ny + q])
+            ynew[q] = y[q] + h_try * ynew[q]
             total += ynew[q]
         t_new = t_next if hit else t + h_try
         err = np.inf
         if total - total == 0.0:
-            rhs(t_new, ynew, a_dem, veh, cons, inv_m, cpl_model, cpl, ctab, tpos, tgrade,
-                tcurv, curve_h, trac, drv, prof_t, prof_y, events, n_ev, K[3 * ny:4 * ny],
-                force, defl, res, bforce, fcons, sig, hints)
+            # the right-hand side at the step's end: the error's last stage, and the next
+            # step's first if the step is accepted (first same as last)
+            rhs(t_new, ynew, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[ns * ny:(ns + 1) * ny])
+            est = w.ytmp  # free once the stages are done
+            for q in range(ny):
+                est[q] = E[0] * K[q]
+            for s in range(1, ns + 1):
+                o = s * ny
+                for q in range(ny):
+                    est[q] += E[s] * K[o + q]
             err = 0.0
             for q in range(ny):
-                e = h_try * (_BS_E[0] * K[q] + _BS_E[1] * K[ny + q] + _BS_E[2] * K[2 * ny + q]
-                             + _BS_E[3] * K[3 * ny + q])
+                e = h_try * est[q]
                 sc = atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q]))
                 e = abs(e) / sc
                 if e > err:
@@ -846,64 +1026,73 @@ def run_adaptive(y, ctrl, astate, r_start, r_stop, n_rec, out_dt, h_max, atol, r
             t = t_new
             for q in range(ny):
                 y[q] = ynew[q]
-                K[q] = K[3 * ny + q]  # first same as last
+                K[q] = K[ns * ny + q]  # first same as last
             _track_peaks(force, peaks, n - 1, t)
-            astate[1] += 1.0
+            sp["accepted"] += 1
             # PI step-size control (Gustafsson): smoother step sequences, fewer rejections
             if err == 0.0:
                 fac = 5.0
             else:
-                fac = 0.9 * err ** (-0.7 / 3.0) * max(astate[4], 1e-4) ** (0.4 / 3.0)
+                fac = 0.9 * err ** (-0.7 / 3.0) * max(sp["last_error"], 1e-4) ** (0.4 / 3.0)
                 fac = min(5.0, max(0.2, fac))
-            if astate[5] > 0.0:  # no growth right after a rejection
+            if sp["last_rejected"]:  # no growth right after a rejection
                 fac = min(fac, 1.0)
-            astate[4] = err
-            astate[5] = 0.0
+            sp["last_error"] = err
+            sp["last_rejected"] = False
             if not hit or fac < 1.0:
                 h = h_try * fac
             else:  # a step shortened to land on a target says little about the next one
                 h = max(h, h_try * fac)
         else:
-            astate[2] += 1.0
-            astate[5] = 1.0
+            sp["rejected"] += 1
+            sp["last_rejected"] = True
             fac = 0.2 if err == np.inf else max(0.2, 0.9 * err ** (-1.0 / 3.0))
             h = h_try * fac
             if h < 1e-12:
-                astate[0], astate[3] = h, t
+                sp["h"] = h
+                sp["t"] = t
                 return NONFINITE, t
-    astate[0], astate[3] = h, t
+    sp["h"] = h
+    sp["t"] = t
     return OK, t
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _record(r, t, y, dy, force, defl, bforce, fcons, sig, a_dem, level, speed_mode, prof_t,
-            prof_y, hints, trac, veh, cons, out_x, out_v, out_a, out_d, out_f, out_s, out_b, out_p,
-            out_c):
-    n = out_x.shape[1]
+def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
+    """Write record ``r`` at time ``t`` (s) of state ``y`` to ``out``: positions,
+    speeds, the accelerations ``dy[n:2n]`` (stage 1 at ``(t, y)``), coupler
+    deflections and forces, brakes and consist forces from ``w``, the scalar signals
+    with the held demand ``a_dem`` (m/s^2) and the last brake level (0-1)."""
+    veh = tr.veh
+    cons = tr.cons
+    trac = tr.trac
+    out_s = out.s
+    n = out.x.shape[1]
     for i in range(n):
-        out_x[r, i] = y[i] + veh[i, V_P0]  # track position
-        out_v[r, i] = y[n + i]
-        out_a[r, i] = dy[n + i]  # stage-1 derivatives sit at offset 0
+        out.x[r, i] = y[i] + veh[i, V_P0]  # track position
+        out.v[r, i] = y[n + i]
+        out.a[r, i] = dy[n + i]  # stage-1 derivatives sit at offset 0
     for j in range(n - 1):
-        out_d[r, j] = defl[j]
-        out_f[r, j] = force[j]
-    if out_b.shape[1] > 0:
+        out.d[r, j] = w.defl[j]
+        out.f[r, j] = w.force[j]
+    if out.b.shape[1] > 0:
         for i in range(n):
             zb = int(veh[i, V_BZ])
-            out_b[r, i] = bforce[i] if zb >= 0 else 0.0
-            out_p[r, i] = y[zb] if zb >= 0 else 0.0
-    if out_c.shape[1] > 0:
+            out.b[r, i] = w.bforce[i] if zb >= 0 else 0.0
+            out.p[r, i] = y[zb] if zb >= 0 else 0.0
+    if out.c.shape[1] > 0:
         for c in range(cons.shape[0]):
-            out_c[r, c] = fcons[c]
-    out_s[r, S_TRACTION] = sig[0]
+            out.c[r, c] = w.fcons[c]
+    sig = w.sig[0]
+    out_s[r, S_TRACTION] = sig["traction"]
     adh = 0.0
     for c in range(cons.shape[0]):
         adh += adhesion_limit(y[n + int(cons[c, K_VEH])], cons[c, K_MADH], trac[T_G])
     out_s[r, S_ADHESION] = adh
-    out_s[r, S_DEMAND] = sig[2]
+    out_s[r, S_DEMAND] = sig["demand"]
     out_s[r, S_BRAKE] = level
     if speed_mode:
-        out_s[r, S_VREF] = _interp(prof_t, prof_y, t, hints, n + 1)
+        out_s[r, S_VREF] = _interp(dr.prof_t, dr.prof_y, t, w.hints, n + 1)
         out_s[r, S_ADEM] = a_dem
     else:
         out_s[r, S_VREF] = np.nan

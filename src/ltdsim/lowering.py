@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ltdsim.integrators import Tableau, get_tableau
+from ltdsim.integrators import BS23, Tableau, get_tableau
 from ltdsim.physics.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
 from ltdsim.physics.resistance import PURE_SIGN
@@ -296,7 +296,7 @@ def lower(s: Scenario) -> Lowered:
         curve_h=float(s.track.curve_h), trac=trac, drv=drv,
         prof_t=np.ascontiguousarray(prof[:, 0]), prof_y=np.ascontiguousarray(prof[:, 1]),
         ctab=np.array(tables, dtype=float),
-        tableau=get_tableau("ode3" if sv.adaptive else sv.method), dt=float(sv.dt),
+        tableau=BS23 if sv.adaptive else get_tableau(sv.method), dt=float(sv.dt),
         n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
         atol=atol, rtol=rtol, max_step=float(sv.max_step), adaptive=sv.adaptive,
     )

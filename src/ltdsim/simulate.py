@@ -194,8 +194,9 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
 
 
 def _buffers(low: Lowered, n_rec: int):
-    """Records, state, controller state, work arrays and the kernels' common argument
-    tail for a run of ``low`` with ``n_rec`` records."""
+    """Records, state, controller, bs23 step state, step grid and the kernels' common
+    argument tail (train, couplers, driver, work, outputs) for a run of ``low`` with
+    ``n_rec`` records."""
     n = low.n
     nc = max(n - 1, 0)
     nk = low.cons.shape[0]
@@ -210,17 +211,21 @@ def _buffers(low: Lowered, n_rec: int):
         "events": np.zeros((MAX_EVENTS, 2)),
     }
     y = low.y0.copy()
-    ctrl = np.zeros(kernel.N_CTRL)
-    stages = 4 if low.adaptive else low.tableau.stages
-    work = np.zeros(kernel.work_size(n, y.shape[0], stages, nk))
-    hints = np.zeros(n + 2 + nk, dtype=np.int64)
-    common = (low.veh, low.cons, low.cpl_model, low.cpl, low.ctab, low.track_pos,
-              low.track_grade, low.track_curv, low.curve_h, low.trac, low.drv, low.prof_t,
-              low.prof_y, rec["events"], rec["x"], rec["v"], rec["a"], rec["d"], rec["f"],
-              rec["s"], rec["b"], rec["p"], rec["c"], rec["peaks"], work, hints)
-    # bs23 carry-over: step size, accepted and rejected steps, time, last error, rejected
-    astate = np.array([low.dt, 0.0, 0.0, 0.0, 1.0, 0.0])
-    return rec, y, ctrl, astate, common
+    ctl = kernel.make_controller(rec["events"])
+    tab = low.tableau
+    stages = tab.stages + 1 if low.adaptive else tab.stages  # (bs23: + the step's end)
+    out = kernel.Outputs(**{k: rec[k] for k in kernel.Outputs._fields})
+    common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
+              kernel.make_work(n, y.shape[0], stages, nk), out)
+    if low.adaptive:
+        grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
+                               h_max=low.max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
+                               b=tab.b, c=tab.c, e=tab.e)
+    else:
+        grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
+                                A=tab.A, b=tab.b, c=tab.c)
+    stepper = kernel.make_stepper(low.dt)  # bs23 carry-over
+    return rec, y, ctl, stepper, grid, common
 
 
 def zero_step_call(low: Lowered):
@@ -228,19 +233,17 @@ def zero_step_call(low: Lowered):
     :func:`ltdsim.kernel.run` or adaptive :func:`ltdsim.kernel.run_adaptive`) and the
     arguments of a call that advances nothing. Calling it compiles the kernel for these
     argument types, or loads it from numba's cache."""
-    _, y, ctrl, astate, common = _buffers(low, 1)
+    _, y, ctl, stepper, grid, common = _buffers(low, 1)
     if low.adaptive:
-        return kernel.run_adaptive, (y, ctrl, astate, 0, 0, 1, low.record_every * low.dt,
-                                     low.max_step, low.atol, low.rtol, *common)
-    return kernel.run, (y, ctrl, 0, 0, low.n_steps, low.record_every, low.dt, low.tableau.A,
-                        low.tableau.b, low.tableau.c, *common)
+        return kernel.run_adaptive, (y, ctl, stepper, 0, 0, grid, *common)
+    return kernel.run, (y, ctl, 0, 0, grid, *common)
 
 
 def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
     """Run the kernel over the whole scenario."""
     n_rec_total = low.n_steps // low.record_every + 1
     try:
-        rec, y, ctrl, astate, common = _buffers(low, n_rec_total)
+        rec, y, ctl, stepper, grid, common = _buffers(low, n_rec_total)
     except MemoryError:  # the memory went to other work since check_memory looked
         raise SimulationError(
             f"not enough memory for the recording ({n_rec_total:,} samples, about "
@@ -254,17 +257,13 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
     while True:
         if low.adaptive:
             r_stop = min(r + per_rec, n_rec_total)
-            status, t_at = kernel.run_adaptive(
-                y, ctrl, astate, r, r_stop, n_rec_total, out_dt, low.max_step, low.atol,
-                low.rtol, *common)
+            status, t_at = kernel.run_adaptive(y, ctl, stepper, r, r_stop, grid, *common)
             r = r_stop
             done = r >= n_rec_total
             t_done = min(r, n_rec_total - 1) * out_dt
         else:
             k_stop = min(k + per_rec * low.record_every, low.n_steps)
-            status, k_end = kernel.run(
-                y, ctrl, k, k_stop, low.n_steps, low.record_every, low.dt, low.tableau.A,
-                low.tableau.b, low.tableau.c, *common)
+            status, k_end = kernel.run(y, ctl, k, k_stop, grid, *common)
             t_at = k_end * low.dt
             k = k_stop
             done = k >= low.n_steps
@@ -279,8 +278,9 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
             progress(t_done, t_end)
         if done:
             break
-    rec["n_events"] = int(ctrl[kernel.C_NEV])
-    rec["steps"] = (int(astate[1]), int(astate[2])) if low.adaptive else (low.n_steps, 0)
+    rec["n_events"] = int(ctl.state[0]["n_events"])
+    st = stepper[0]
+    rec["steps"] = (int(st["accepted"]), int(st["rejected"])) if low.adaptive else (low.n_steps, 0)
     return rec
 
 
@@ -348,8 +348,9 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "coupler_number": ("coupler", np.arange(1, n)),
     }
     nc = n - 1
-    for col, name in enumerate(("max_coupler_force", "min_coupler_force",
-                                "time_max_coupler_force", "time_min_coupler_force")):
+    for col, name in ((kernel.PK_MAX, "max_coupler_force"), (kernel.PK_MIN, "min_coupler_force"),
+                      (kernel.PK_TMAX, "time_max_coupler_force"),
+                      (kernel.PK_TMIN, "time_min_coupler_force")):
         data[name] = ("coupler", rec["peaks"][:, col] if nc else np.zeros(0))
     if rec["b"].shape[1]:
         data["brake_command"] = ("time", s[:, kernel.S_BRAKE])
