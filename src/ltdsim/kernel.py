@@ -337,6 +337,14 @@ def make_work(n: int, ny: int, stages: int, n_consists: int) -> Work:
                 hints=np.zeros(n + 2 + n_consists, dtype=np.int64))
 
 
+
+def work_size(n: int, ny: int, stages: int, n_consists: int = 1) -> int:
+    """Elements (8 bytes each) of the :class:`Work` that :func:`make_work` builds for the
+    same arguments, counted without allocating it (the memory check before a run)."""
+    nc = max(n - 1, 1)
+    return (stages * ny + 2 * ny + 2 * nc + 2 * n + n_consists + len(SIGNALS.names)
+            + n + 2 + n_consists)
+
 @njit(cache=True, inline="always")
 def _segment(xs, x, hint):
     """Index k of the segment ``xs[k] <= x < xs[k+1]`` (0 before the first point).
