@@ -60,10 +60,10 @@ T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF = range(9)
 # step; cylinder time constants (s), standstill speed (m/s); mean shoe force at full
 # application (N) and the train's total full shoe force (N, 0 = no brakes) for the
 # controller's blending; PID anti-windup (0/1)
-(D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT, D_EVERY,
+(D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT,
  D_BSOFF, D_BSLEN, D_BPOFF, D_BPLEN, D_BCTRL, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
- D_BSHOEREF, D_BFULLSUM, D_AW) = range(21)
-N_DRV = 21
+ D_BSHOEREF, D_BFULLSUM, D_AW) = range(20)
+N_DRV = D_AW + 1
 MODE_SPEED, MODE_FORCE, MODE_NOTCH = 0, 1, 2
 #: N/m: force states enter the bs23 error norm as force / FORCE_SCALE, so ``atol`` reads
 #: as metres of gear deflection for them too (1e-6 m -> 1 N)
@@ -227,18 +227,15 @@ def lower(s: Scenario) -> Lowered:
     drv = np.zeros(N_DRV)
     if d.mode == "speed":
         pid = d.pid
-        every = pid.ts / s.solver.dt  # whole multiple, checked on load
-        drv[:D_EVERY + 1] = [MODE_SPEED, pid.kp, pid.ki, pid.kd, pid.n, pid.ts,
-                             METHODS[pid.integrator], METHODS[pid.filter], round(every)]
+        drv[:D_FILT + 1] = [MODE_SPEED, pid.kp, pid.ki, pid.kd, pid.n, pid.ts,
+                            METHODS[pid.integrator], METHODS[pid.filter]]
         drv[D_AW] = 1.0 if pid.anti_windup else 0.0
         prof = np.column_stack(rounded_profile(d.speed_profile))
     elif d.mode == "force":
         drv[D_MODE] = MODE_FORCE
-        drv[D_EVERY] = 1
         prof = np.array(d.force_profile, dtype=float).reshape(-1, 2)
     else:
         drv[D_MODE] = MODE_NOTCH
-        drv[D_EVERY] = 1
         prof = np.array(d.notch_profile, dtype=float).reshape(-1, 2)
 
     # air brakes
