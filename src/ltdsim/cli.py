@@ -232,22 +232,16 @@ def image_suffixes() -> tuple[str, ...]:
     return tuple(f".{k}" for k in sorted(FigureCanvasAgg.get_supported_filetypes()))
 
 
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.resolve() == b.resolve() or (a.exists() and b.exists()
-                                              and os.path.samefile(a, b))
-    except OSError:
-        return False
-
-
 def _check_output(path: Optional[Path], option: str, suffixes, inputs=()) -> None:
     """Refuse, before any work, an output file that is one of the ``inputs``, an existing
     folder, a file whose suffix is not one of ``suffixes`` (what ltdsim writes under that
     option), or a file in a folder ltdsim cannot write into (or make)."""
     if path is None:
         return
+    from ltdsim.io import same_file
+
     for given in inputs:
-        if given is not None and _same_file(path, Path(given)):
+        if given is not None and same_file(path, given):
             raise ScenarioError(option, [("", f"{path} is an input of this command; ltdsim "
                                               "never writes over its input: choose another "
                                               "path")])

@@ -33,6 +33,17 @@ def atomic_path(path: str | Path):
             os.unlink(tmp)
 
 
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether paths ``a`` and ``b`` name one file (the same path, or one file reached
+    by a link); False when either cannot be looked at."""
+    a, b = Path(a), Path(b)
+    try:
+        return a.resolve() == b.resolve() or (a.exists() and b.exists()
+                                              and os.path.samefile(a, b))
+    except OSError:
+        return False
+
+
 # ----------------------------------------------------- records of what was written
 # Files that are reused later (sweep case records and time series, the study's stage
 # caches and their files) carry what they were when written: a file its size in bytes

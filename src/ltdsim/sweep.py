@@ -32,7 +32,8 @@ import numpy as np
 import pandas as pd
 
 from ltdsim.errors import LtdsimError, ScenarioError
-from ltdsim.io import atomic_path, file_problem, file_record, read_sealed, sealed_json
+from ltdsim.io import (atomic_path, file_problem, file_record, read_sealed, same_file,
+                       sealed_json)
 from ltdsim.scenario import Scenario, load_scenario, read_toml
 
 SWEEP_KEYS = {"name", "scenario", "case", "overrides", "grid", "list", "monte_carlo"}
@@ -182,7 +183,7 @@ def load_sweep(path: str | Path, progress: Checked | None = None) -> Sweep:
             raise ScenarioError(source, [(key, f"expected a string, got "
                                                f"{type(data[key]).__name__}")])
     target = path.parent / data["scenario"]
-    if target.exists() and _same_file(target, path):
+    if same_file(target, path):
         raise ScenarioError(source, [("scenario", "names this sweep file; give the scenario "
                                                   "file the cases start from")])
     base = load_scenario(target, case=data.get("case"))
@@ -222,13 +223,6 @@ def load_sweep(path: str | Path, progress: Checked | None = None) -> Sweep:
         cases = [Case(f"mc{i:04d}", {**common, **ov})
                  for i, ov in enumerate(_monte_carlo(source, data["monte_carlo"]))]
     return _validated(Sweep(base, cases, source), progress)
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
 
 
 def _dotted(table: dict, prefix: str = "", leaf=lambda v: False) -> dict:
