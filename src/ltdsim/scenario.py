@@ -73,19 +73,30 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
 class Solver(_Strict):
     """Integration settings."""
 
-    method: Literal["euler", "heun", "ode3", "rk4", "bs23"] = "ode3"
+    method: Literal["euler", "heun", "ode3", "rk4", "bs23"] = Field(
+        "ode3", description="explicit Runge-Kutta method with a fixed step (ode3: "
+                            "Bogacki-Shampine, third order); bs23: the same pair with error "
+                            "control and adaptive steps")
     dt: float = Field(1e-4, gt=0.0, le=1.0,
-                      description="step (fixed-step methods) or first step (bs23), s")
-    t_end: float = Field(gt=0.0, le=1e7, description="end time, s")
-    output_interval: float = Field(1e-3, gt=0.0, description="recording interval, s")
+                      description="step of the fixed-step methods; for bs23 the first step, s")
+    t_end: float = Field(gt=0.0, le=1e7, description="end time, rounded down to a whole "
+                                                     "number of output intervals, s")
+    output_interval: float = Field(
+        1e-3, gt=0.0, description="spacing of the recorded samples: a whole multiple of dt, "
+                                  "at most t_end, s")
     # adaptive Bogacki-Shampine 3(2) (method = "bs23")
-    rtol: float = Field(1e-5, gt=0.0, le=0.1, description="bs23 relative tolerance, -")
+    rtol: float = Field(1e-5, gt=0.0, le=0.1,
+                        description="bs23: relative tolerance (not applied to positions, "
+                                    "whose size is arbitrary), -")
     atol: float = Field(1e-6, gt=0.0, le=1.0,
-                        description="bs23 absolute tolerance, m and m/s (forces: x 1e6 N/m)")
-    max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23 largest step, s")
+                        description="bs23: absolute tolerance on displacements, speeds, plate "
+                                    "travel and brake fill, m and m/s (force states use "
+                                    "atol x 1e6 N/m: 1e-6 means 1 N)")
+    max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23: largest step, s")
     stability_check: bool = Field(
         True, description="refuse a fixed step above the method's largest stable step for "
-                          "the train (ltdsim.stability); false runs it anyway")
+                          "the train (ltdsim.stability); false runs it anyway (the run stops "
+                          "at the first non-finite state)")
 
     @property
     def adaptive(self) -> bool:
@@ -120,10 +131,13 @@ class Solver(_Strict):
 class Davis(_Strict):
     """Davis resistance coefficients ``F = a + b v + c v^2``."""
 
-    a: float = Field(0.0, ge=0.0, le=1e6, description="N")
-    b: float = Field(0.0, ge=0.0, le=1e6, description="N s/m")
-    c: float = Field(0.0, ge=0.0, le=1e5, description="N s^2/m^2")
-    v0: float = Field(0.01, ge=0.0, le=1.0, description="standstill speed, m/s")
+    a: float = Field(0.0, ge=0.0, le=1e6, description="constant term, opposing motion, N")
+    b: float = Field(0.0, ge=0.0, le=1e6, description="term proportional to speed, N s/m")
+    c: float = Field(0.0, ge=0.0, le=1e5,
+                     description="term proportional to the square of speed, N s^2/m^2")
+    v0: float = Field(0.01, ge=0.0, le=1.0,
+                      description="standstill speed: below it the constant term fades "
+                                  "linearly to 0 (no chatter at rest), m/s")
 
 
 class VehicleBrake(_Strict):
@@ -131,13 +145,19 @@ class VehicleBrake(_Strict):
     shoe friction coefficient, scaled by the cylinder's fill (0-1)."""
 
     cylinder_force: float = Field(gt=0.0, le=1e6,
-                                  description="piston force at full application, N")
+                                  description="piston force at full application (pressure x "
+                                              "area x efficiency), N")
     rigging_ratio: float = Field(gt=0.0, le=100.0,
                                  description="total shoe force / piston force, -")
-    shoes: int = Field(8, ge=1, le=64, description="number of shoes sharing the shoe force")
+    shoes: int = Field(8, ge=1, le=64, description="number of shoes sharing the shoe force "
+                                                   "(for the force K on one shoe)")
     friction: Union[Literal["karwatzki"], Annotated[float, Field(gt=0.0, le=1.0)]] = Field(
-        "karwatzki", description="'karwatzki' (cast iron) or a constant coefficient, -")
-    friction_table: Points | None = Field(None, description="[speed m/s, mu] (replaces friction)")
+        "karwatzki", description="shoe friction coefficient mu: 'karwatzki' (Karwatzki's "
+                                 "cast-iron law 0.6 (16K+100)/(80K+100) (V+100)/(5V+100) with "
+                                 "K in kN per shoe and V in km/h) or a constant, -")
+    friction_table: Points | None = Field(
+        None, description="[speed m/s, mu -] points, linear between, constant outside; speeds "
+                          "strictly increasing, mu in [0, 1]; replaces friction")
 
     @field_validator("friction_table")
     @classmethod
@@ -150,15 +170,25 @@ class VehicleBrake(_Strict):
 class Vehicle(_Strict):
     """One vehicle, or ``count`` identical ones, front to rear."""
 
-    name: str = Field(min_length=1)
-    count: int = Field(1, ge=1, le=MAX_VEHICLES)
-    mass: float = Field(gt=0.0, le=MAX_MASS, description="dynamic mass, kg")
+    name: str = Field(min_length=1, description="label in results")
+    count: int = Field(1, ge=1, le=MAX_VEHICLES,
+                       description="repeat this vehicle: the number of identical vehicles "
+                                   "the table stands for")
+    mass: float = Field(gt=0.0, le=MAX_MASS, description="dynamic mass (includes rotating "
+                                                         "inertia) used in m a = F, kg")
     static_mass: float | None = Field(None, gt=0.0, le=MAX_MASS,
-                                      description="mass whose weight acts, kg")
-    length: float = Field(gt=0.0, le=MAX_LENGTH, description="over couplers, m")
-    davis: Davis = Davis()
-    powered: bool = False
-    brake: VehicleBrake | None = None
+                                      description="mass whose weight acts on grades and "
+                                                  "curves (none: mass), kg")
+    length: float = Field(gt=0.0, le=MAX_LENGTH, description="length over couplers, m")
+    davis: Davis = Field(Davis(), description="Davis resistance a + b v + c v^2, opposing "
+                                              "motion")
+    powered: bool = Field(False, description="takes an equal share of its locomotive "
+                                             "consist's force; at least one vehicle must be "
+                                             "powered")
+    brake: VehicleBrake | None = Field(None, description="air (tread) brake of this vehicle: "
+                                                         "retarding force = fill x "
+                                                         "cylinder_force x rigging_ratio x "
+                                                         "mu(v, K); none: unbraked")
 
     @property
     def weight_mass(self) -> float:
@@ -358,11 +388,18 @@ class Track(_Strict):
     """Track as piecewise-constant functions of position along the line."""
 
     gradient: Points = Field(default_factory=lambda: [(0.0, 0.0)],
-                             description="[start m, rise/run]")
+                             description="[start position m, grade -] pieces, grade = rise/run, "
+                                         "+ uphill in the direction of travel; starts strictly "
+                                         "increasing, grades in [-0.1, 0.1]; the first piece "
+                                         "also covers everything before it")
     curve: Points = Field(default_factory=lambda: [(0.0, 0.0)],
-                          description="[start m, radius m], 0 = straight")
-    curve_h: float = Field(540.0, ge=0.0, le=5000.0, description="curve constant, -")
-    gravity: float = Field(9.81, ge=9.7, le=9.9, description="m/s^2")
+                          description="[start position m, radius m] pieces; starts strictly "
+                                      "increasing, radius 0 (straight) or 20 to 1e6")
+    curve_h: float = Field(540.0, ge=0.0, le=5000.0,
+                           description="curve resistance constant h: h / R newtons per "
+                                       "kilonewton of weight, R the radius in m, N m/kN")
+    gravity: float = Field(9.81, ge=9.7, le=9.9, description="gravitational acceleration, "
+                                                             "m/s^2")
 
     @field_validator("gradient")
     @classmethod
@@ -379,20 +416,34 @@ class Track(_Strict):
 class Traction(_Strict):
     """Traction curve and acceleration limits of the driving locomotives (together)."""
 
-    max_force: float = Field(gt=0.0, le=1e8, description="N")
-    max_power: float = Field(gt=0.0, le=1e9, description="W")
-    adhesion_mass: float = Field(gt=0.0, le=1e8, description="kg")
-    max_accel: float = Field(0.976, gt=0.0, le=10.0, description="m/s^2")
-    max_decel: float = Field(0.976, gt=0.0, le=10.0, description="m/s^2")
-    feedforward: bool = Field(True, description="add the train's resistance to the demand")
+    max_force: float = Field(gt=0.0, le=1e8, description="force limit F_max, N")
+    max_power: float = Field(gt=0.0, le=1e9,
+                             description="power limit P_max (force at most P_max / v), W")
+    adhesion_mass: float = Field(gt=0.0, le=1e8,
+                                 description="mass on the driven wheels, for the "
+                                             "Curtius-Kniffler adhesion limit, kg")
+    max_accel: float = Field(0.976, gt=0.0, le=10.0,
+                             description="upper limit of the speed controller's demand as an "
+                                         "acceleration of the whole train (the demanded force "
+                                         "less the feed-forward stays within max_accel x "
+                                         "train mass), m/s^2")
+    max_decel: float = Field(0.976, gt=0.0, le=10.0,
+                             description="lower limit of the demand, as a positive number, "
+                                         "the same way, m/s^2")
+    feedforward: bool = Field(True, description="add the train's total running resistance "
+                                                "to the demanded force")
     time_constant: float = Field(0.0, ge=0.0, le=60.0,
-                                 description="first-order lag of the force, s (0 = none)")
+                                 description="motor and inverter response: the force follows "
+                                             "the curve-limited demand through a first-order "
+                                             "lag, s (0 = at once)")
     jerk_limit: float = Field(0.0, ge=0.0, le=100.0,
-                              description="largest rate of the force / train mass, m/s^3 "
-                                          "(0 = none)")
+                              description="caps the lagged force's rate at jerk_limit x train "
+                                          "mass x consist share (its max_force over the sum); "
+                                          "needs time_constant > 0, m/s^3 (0 = none)")
     dynamic_brake_fade: float = Field(
         0.0, ge=0.0, le=30.0,
-        description="speed below which dynamic braking fades linearly to 0, m/s (0 = none)")
+        description="speed below which dynamic braking fades linearly to 0, as motors give "
+                    "no braking at standstill, m/s (0 = the study's mirrored curve down to 0)")
 
     @model_validator(mode="after")
     def _lag(self):
@@ -413,17 +464,29 @@ class Locomotive(_Strict):
     distributed power, their own commands and brake-control point. Keys left out take
     the ``[traction]`` value."""
 
-    name: str = Field(min_length=1)
+    name: str = Field(min_length=1,
+                      description="label (locomotive coordinate of locomotive_force)")
     vehicles: list[Annotated[int, Field(ge=0)]] = Field(
-        min_length=1, description="indices of its powered vehicles (lead = 0)")
-    max_force: float | None = Field(None, gt=0.0, le=1e8, description="N")
-    max_power: float | None = Field(None, gt=0.0, le=1e9, description="W")
-    adhesion_mass: float | None = Field(None, gt=0.0, le=1e8, description="kg")
-    time_constant: float | None = Field(None, ge=0.0, le=60.0, description="s")
-    jerk_limit: float | None = Field(None, ge=0.0, le=100.0, description="m/s^3")
+        min_length=1, description="indices of its powered vehicles after count expansion "
+                                  "(lead = 0), each in one consist")
+    max_force: float | None = Field(None, gt=0.0, le=1e8,
+                                    description="force limit (none: [traction]), N")
+    max_power: float | None = Field(None, gt=0.0, le=1e9,
+                                    description="power limit (none: [traction]), W")
+    adhesion_mass: float | None = Field(None, gt=0.0, le=1e8,
+                                        description="mass on the driven wheels (none: "
+                                                    "[traction]), kg")
+    time_constant: float | None = Field(None, ge=0.0, le=60.0,
+                                        description="force lag (none: [traction]), s")
+    jerk_limit: float | None = Field(None, ge=0.0, le=100.0,
+                                     description="force rate cap (none: [traction]), m/s^3")
     notch_profile: Points | None = Field(
-        None, description="[t s, notch] own commands (independent distributed power)")
-    brake_control: bool = Field(True, description="vents and charges the brake pipe (DP)")
+        None, description="[t s, notch -] its own throttle, held until the next point "
+                          "(independent distributed power); whole notches in [-8, 8]; not on "
+                          "the lead consist; none: the consist follows the driver")
+    brake_control: bool = Field(True, description="also a brake-control point: under "
+                                                  "distributed power the remote units vent "
+                                                  "and charge the brake pipe with the lead")
 
     @field_validator("notch_profile")
     @classmethod
@@ -435,29 +498,46 @@ class Brake(_Strict):
     """Train air brake: brake-pipe signal and brake-cylinder dynamics."""
 
     mode: Literal["pneumatic", "ecp"] = Field(
-        "pneumatic", description="pneumatic: signal travels along the pipe; ecp: all at once")
+        "pneumatic", description="pneumatic: a command reaches a vehicle after its distance "
+                                 "from the nearest brake-control point / propagation_speed; "
+                                 "ecp (electronically controlled): everywhere at once")
     propagation_speed: float = Field(250.0, ge=10.0, le=400.0,
                                      description="brake-pipe signal speed, m/s")
-    apply_time_constant: float = Field(3.0, gt=0.0, le=120.0, description="s")
-    release_time_constant: float = Field(10.0, gt=0.0, le=300.0, description="s")
+    apply_time_constant: float = Field(3.0, gt=0.0, le=120.0,
+                                       description="brake-cylinder fill time constant while "
+                                                   "the command is above the fill, s")
+    release_time_constant: float = Field(10.0, gt=0.0, le=300.0,
+                                         description="the same while the command is below "
+                                                     "the fill, s")
     standstill_speed: float = Field(0.01, gt=0.0, le=1.0,
-                                    description="speed below which the force fades, m/s")
+                                    description="speed below which the brake force fades "
+                                                "linearly to 0, so that a stopped vehicle is "
+                                                "held, not pushed back, m/s")
     level_step: float = Field(0.1, gt=0.0, le=1.0,
-                              description="step of controller-made applications, -")
+                              description="controller-made applications come in steps of "
+                                          "this brake level, -")
 
 
 class PID(_Strict):
     """Discrete PID in parallel form; output = demanded acceleration."""
 
-    kp: float = Field(ge=0.0, le=1e6, description="1/s")
-    ki: float = Field(0.0, ge=0.0, le=1e6, description="1/s^2")
-    kd: float = Field(0.0, ge=0.0, le=1e6, description="-")
-    n: float = Field(100.0, gt=0.0, le=1e6, description="filter coefficient, 1/s")
-    ts: float = Field(1e-4, gt=0.0, le=10.0, description="sample time, s")
-    integrator: Literal["forward_euler", "backward_euler"] = "forward_euler"
-    filter: Literal["forward_euler", "backward_euler"] = "backward_euler"
-    anti_windup: bool = Field(False, description="hold the integrator while the demand is "
-                                                 "clipped or the drives are saturated")
+    kp: float = Field(ge=0.0, le=1e6,
+                      description="proportional gain (m/s^2 of demand per m/s of error), 1/s")
+    ki: float = Field(0.0, ge=0.0, le=1e6, description="integral gain, 1/s^2")
+    kd: float = Field(0.0, ge=0.0, le=1e6, description="derivative gain, -")
+    n: float = Field(100.0, gt=0.0, le=1e6, description="derivative filter coefficient, 1/s")
+    ts: float = Field(1e-4, gt=0.0, le=10.0,
+                      description="sample time, a whole multiple of solver.dt, s")
+    integrator: Literal["forward_euler", "backward_euler"] = Field(
+        "forward_euler", description="discretisation of the integrator: Ts/(z-1) "
+                                     "(forward_euler) or Ts z/(z-1) (backward_euler)")
+    filter: Literal["forward_euler", "backward_euler"] = Field(
+        "backward_euler", description="discretisation of the derivative filter")
+    anti_windup: bool = Field(False, description="conditional integration: the integrator "
+                                                 "holds while the demand is clipped or the "
+                                                 "drives are at their traction curves, in the "
+                                                 "direction the error pushes (false: the "
+                                                 "study's Simulink block)")
     acceleration_of: Literal["train", "locomotive"] = Field(
         "train", description="whose acceleration the output demands: the force is the "
                              "output times the train's or the lead locomotive's mass")
@@ -468,21 +548,38 @@ SpeedPoints = list[Union[Pair, Triple]]
 
 
 class Driver(_Strict):
-    mode: Literal["speed", "force", "notch"] = "speed"
+    """The driver's commands: speed, force or notch control, and air-brake commands."""
+
+    mode: Literal["speed", "force", "notch"] = Field(
+        "speed", description="speed: the PID tracks speed_profile; force: force_profile is "
+                             "the demanded force; notch: notch_profile")
     speed_profile: SpeedPoints = Field(
         default_factory=lambda: [(0.0, 0.0)],
-        description="[t s, v m/s] or [t s, v m/s, jerk time s] (corner rounded)")
-    pid: PID | None = None
+        description="[t s, v m/s] or [t s, v m/s, jerk time s] reference speed, linear "
+                    "between points, constant after the last; times strictly increasing, "
+                    "speeds in [0, 150]; a jerk time (interior points, in [0, 600], "
+                    "neighbouring roundings not overlapping) rounds the corner at that point: "
+                    "over that time, centred on it, the acceleration changes linearly")
+    pid: PID | None = Field(None, description="the speed controller, required in speed mode")
     force_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
-                                  description="[t s, F N]")
+                                  description="[t s, force N] demanded traction (+) or dynamic "
+                                              "brake (-), linear between points; times "
+                                              "strictly increasing, forces in [-1e8, 1e8]")
     notch_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
-                                  description="[t s, notch -8..8], held until the next point")
+                                  description="[t s, notch -] throttle notch, held until the "
+                                              "next point; whole notches in [-8, 8]; notch q "
+                                              "demands q/8 of each consist's traction curve "
+                                              "(negative: dynamic brake)")
     brake_profile: Points | None = Field(
-        None, description="[t s, brake level 0-1] applications at given times")
+        None, description="[t s, brake level -] air-brake commands at given times; levels in "
+                          "[0, 1] (1 = full application, 0 = release); needs a braked vehicle")
     brake_positions: Points | None = Field(
-        None, description="[lead vehicle position m, brake level 0-1]")
+        None, description="[lead position m, brake level -] commands issued when the lead "
+                          "vehicle's centre passes the position; levels in [0, 1]")
     brake_controller: bool = Field(False, description="speed mode: the controller applies "
-                                                      "the air brake beyond dynamic braking")
+                                                      "the air brake when its demanded "
+                                                      "braking exceeds what the dynamic "
+                                                      "brakes give, in brake.level_step steps")
 
     @field_validator("speed_profile")
     @classmethod
@@ -538,18 +635,23 @@ class Driver(_Strict):
 class Initial(_Strict):
     """Initial state of the train."""
 
-    speed: float = Field(0.0, ge=0.0, le=150.0, description="all vehicles, m/s")
+    speed: float = Field(0.0, ge=0.0, le=150.0,
+                         description="initial speed of every vehicle, m/s")
     velocities: list[Annotated[float, Field(ge=-150.0, le=150.0)]] | None = Field(
-        None, description="one speed per vehicle, m/s (instead of speed)")
-    couplers: Literal["neutral", "stretched", "bunched"] = "neutral"
+        None, description="one initial speed per vehicle, front to rear (instead of speed), "
+                          "m/s")
+    couplers: Literal["neutral", "stretched", "bunched"] = Field(
+        "neutral", description="couplers start centred in their slack (neutral), at the "
+                               "draft end (stretched) or at the buff end (bunched)")
 
 
 class Phase(_Strict):
     """A named time window for analyses (the study's phases, paper §5.1)."""
 
-    name: str = Field(min_length=1)
-    start: float = Field(ge=0.0, description="s")
-    end: float = Field(gt=0.0, description="s")
+    name: str = Field(min_length=1, description="label in tables, CSV files and figures; "
+                                                "different for each phase")
+    start: float = Field(ge=0.0, description="start of the window (simulated time), s")
+    end: float = Field(gt=0.0, description="end of the window, after start, s")
 
     @model_validator(mode="after")
     def _order(self):
@@ -573,21 +675,36 @@ CaseOverrides = dict[str, Any]
 class Scenario(_Strict):
     """A validated scenario. Build it with :func:`load_scenario` or :meth:`from_dict`."""
 
-    name: str = "scenario"
-    description: str = ""
-    solver: Solver
-    vehicles: list[Vehicle] = Field(min_length=1)
-    couplers: Couplers | None = None
-    track: Track = Track()
-    traction: Traction
-    locomotives: list[Locomotive] = []
-    brake: Brake = Brake()
-    driver: Driver = Driver(mode="force")
-    initial: Initial = Initial()
+    name: str = Field("scenario", description="free text, copied into the result's "
+                                              "attributes")
+    description: str = Field("", description="free text, copied into the result's "
+                                             "attributes")
+    solver: Solver = Field(description="integration settings")
+    vehicles: list[Vehicle] = Field(min_length=1, description="one table per vehicle or "
+                                                              "group, front to rear")
+    couplers: Couplers | None = Field(None, description="draft gears and slack; needed by a "
+                                                        "train of more than one vehicle")
+    track: Track = Field(Track(), description="grades and curves along the line")
+    traction: Traction = Field(description="traction curve of all powered vehicles together, "
+                                           "or, with [[locomotives]], the default of each "
+                                           "consist")
+    locomotives: list[Locomotive] = Field(
+        [], description="distributed power: each entry a consist with its own traction "
+                        "curve, lag state and optionally its own commands; the first is the "
+                        "lead consist")
+    brake: Brake = Field(Brake(), description="train air brake: brake-pipe signal and "
+                                              "brake-cylinder dynamics")
+    driver: Driver = Field(Driver(mode="force"), description="the driver's commands")
+    initial: Initial = Field(Initial(), description="initial state of the train")
     # analysis windows; none given: the whole run is one phase (ltdsim.phases.phases_of)
-    phases: list[Phase] = []
-    cases: dict[str, CaseOverrides] = {}
-    case: str | None = Field(None, description="name of the applied case, if any")
+    phases: list[Phase] = Field(
+        [], description="named time windows for the per-phase analyses; none: the whole "
+                        "run is one phase")
+    cases: dict[str, CaseOverrides] = Field(
+        {}, description="named sets of dotted-key overrides ([cases.NAME], "
+                        "\"vehicles.3.mass\" = 9e4), applied with --case NAME")
+    case: str | None = Field(None, description="name of the applied case, if any (set by "
+                                               "--case)")
 
     @field_validator("vehicles")
     @classmethod
