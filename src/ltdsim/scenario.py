@@ -560,7 +560,9 @@ class Driver(_Strict):
                     "speeds in [0, 150]; a jerk time (interior points, in [0, 600], "
                     "neighbouring roundings not overlapping) rounds the corner at that point: "
                     "over that time, centred on it, the acceleration changes linearly")
-    pid: PID | None = Field(None, description="the speed controller, required in speed mode")
+    pid: PID | None = Field(None, description="the speed controller, required in speed "
+                                              "mode: the study's discrete PID in parallel "
+                                              "form, whose output is a demanded acceleration")
     force_profile: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                                   description="[t s, force N] demanded traction (+) or dynamic "
                                               "brake (-), linear between points; times "
@@ -684,7 +686,8 @@ class Scenario(_Strict):
                                                               "group, front to rear")
     couplers: Couplers | None = Field(None, description="draft gears and slack; needed by a "
                                                         "train of more than one vehicle")
-    track: Track = Field(Track(), description="grades and curves along the line")
+    track: Track = Field(Track(), description="grades and curves, piecewise constant along "
+                                              "the line")
     traction: Traction = Field(description="traction curve of all powered vehicles together, "
                                            "or, with [[locomotives]], the default of each "
                                            "consist")
@@ -694,7 +697,9 @@ class Scenario(_Strict):
                         "lead consist")
     brake: Brake = Field(Brake(), description="train air brake: brake-pipe signal and "
                                               "brake-cylinder dynamics")
-    driver: Driver = Field(Driver(mode="force"), description="the driver's commands")
+    driver: Driver = Field(Driver(mode="force"),
+                           description="the driver's commands: speed, force or notch "
+                                       "control, and air-brake commands")
     initial: Initial = Field(Initial(), description="initial state of the train")
     # analysis windows; none given: the whole run is one phase (ltdsim.phases.phases_of)
     phases: list[Phase] = Field(
