@@ -68,8 +68,13 @@ def leaves(model: type[BaseModel]) -> list[dict]:
                             m["properties"][disc]["enum"][0]
                         walk(m, sub, const, skip=disc)
                     nested = True
+                elif members and all("properties" in _resolve(m, defs) for m in members):
+                    for m in members:  # a union of tables without a discriminator
+                        walk(m, sub, _resolve(m, defs)["title"])
+                    nested = True
                 elif "properties" in target:
-                    walk(target, sub, None)
+                    plain = sum("properties" in x for x in opts) > 1  # a union of tables
+                    walk(target, sub, target["title"] if plain else None)
                     nested = True
             if not nested:
                 out.append({"path": p, "variant": variant, "required": name in required,
@@ -93,8 +98,8 @@ def rows(text: str) -> dict[tuple[str, str | None], dict]:
         if not inside:
             continue
         if line.startswith(("`[", "Top-level keys")):
-            m = re.search(r'with `\w+ = "([^"]+)"`', line)
-            variant = m.group(1) if m else None
+            m = re.search(r'with `\w+ = "([^"]+)"`|as `(\w+)`', line)
+            variant = (m.group(1) or m.group(2)) if m else None
         if not line.startswith("| `"):
             continue
         cells = [c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", line)[1:-1]]
@@ -238,8 +243,19 @@ class _Gears(_S):
     override: list[Annotated[_Linear | _Tabled, Field(discriminator="model")]] = []
 
 
+class _Rail(_S):
+    """Rail of one kind."""
+
+    mass: float = Field(60.0, gt=0.0, description="mass per length, kg/m")
+
+
+class _Slab(_S):
+    thickness: float = Field(0.2, gt=0.0, le=1.0, description="slab thickness, m")
+
+
 class _Toy(_S):
     name: str = Field("toy", description="label")
+    track: _Rail | _Slab | None = Field(None, description="what the train runs on")
     speed: float = Field(0.0, ge=0.0, le=150.0, description="initial speed, m/s")
     mode: Literal["a", "b"] = Field("a", description="which way")
     gears: _Gears
@@ -271,10 +287,13 @@ def test_discriminated_union_gives_a_table_per_model_with_its_keys():
     assert ("gears.default.stiffness", "tabled") not in table
     assert ("gears.default.decay", "tabled") in table
     assert ("gears.override.<i>.loading", "tabled") in table
+    assert ("track.mass", "_Rail") in table and ("track.thickness", "_Slab") in table
     assert table[("gears.default.loading", "tabled")]["unit"] == "[m, N]"
     assert table[("gears.default.decay", "tabled")]["allowed"] == "[0, 100)"
     assert 'with `model = "linear"`' in text and 'with `model = "tabled"`' in text
-    assert text.count("### `[gears]`") == 1  # headings for the top-level tables in 'rest'
+    # one heading per top-level table in 'rest', also for a union's members
+    assert text.count("### `[gears]`") == 1 and text.count("### `[track]`") == 1
+    assert "`[track]` as `_Rail` (optional). Rail of one kind." in text
     assert schemadoc.render(text, _Toy) == text  # rewriting is idempotent
     # the independent check notices a dropped row
     broken = "\n".join(ln for ln in text.splitlines() if "`gears.default.decay`" not in ln)

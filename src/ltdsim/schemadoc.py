@@ -455,11 +455,13 @@ def _intro(sec: Section) -> str:
     what = f"`{sec.header}`" if sec.header else "Top-level keys"
     if sec.variant is not None:
         what += (f" with `{sec.discriminator} = \"{sec.variant}\"`" if sec.discriminator
-                 else f" as {sec.variant}")
+                 else f" as `{sec.variant}`")
     if sec.status:
         what += f" ({sec.status})"
-    # the parent field's description, else the class docstring's first paragraph
-    text = sec.about or (sec.model.__doc__ or "").strip().split("\n\n")[0]
+    # the parent field's description, else the class docstring's first paragraph (a union
+    # member's docstring first: it tells the members apart)
+    doc = (sec.model.__doc__ or "").strip().split("\n\n")[0]
+    text = (doc or sec.about) if sec.variant is not None else (sec.about or doc)
     text = " ".join(text.replace("``", "`").split()).rstrip(".")
     if not text or not sec.header:
         return f"{what}."
@@ -484,8 +486,10 @@ def section_markdown(sec: Section) -> str:
 def block_markdown(secs: list[Section], with_headings: bool = False) -> str:
     """The generated text of one block: its sections' tables, one after another."""
     parts = []
+    headed = set()
     for s in secs:
-        if with_headings and "." not in s.id:
+        if with_headings and "." not in s.id and s.id not in headed:
+            headed.add(s.id)
             parts.append(f"### `{s.header}`" if s.header else "### Top-level keys")
         parts.append(section_markdown(s))
     return "\n\n".join(parts)
