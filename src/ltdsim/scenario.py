@@ -1,6 +1,9 @@
 """Scenario files: TOML in, a validated :class:`Scenario` out.
 
-Every key is documented with its unit in ``docs/scenario.md``. Validation happens at
+Every key is documented with its unit in ``docs/scenario.md``, whose key tables
+:mod:`ltdsim.schemadoc` generates from the fields below: write each description as
+``"meaning, UNIT"`` (``-`` for dimensionless; an array of points opens with its columns,
+``"[t s, v m/s] ..."``), and ranges a validator checks in the meaning. Validation happens at
 load time: an unknown key, a value out of range, a NaN, an empty train, an output
 interval that is not a whole multiple of the step, an override that points nowhere or
 an unknown case raises one :class:`~ltdsim.errors.ScenarioError` naming the file, the
