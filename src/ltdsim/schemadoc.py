@@ -56,8 +56,10 @@ from pydantic.fields import FieldInfo
 #: kinds of value that carry no unit (the unit column shows "–")
 UNITLESS = ("flag", "choice", "text", "path", "whole number")
 
-#: the document this module writes, relative to the repository root
-DOC = Path("docs/scenario.md")
+#: the document this module writes: the source tree's (a wheel carries no docs/, so an
+#: installed package looks for it in the working folder)
+_SOURCE_DOC = Path(__file__).resolve().parents[2] / "docs" / "scenario.md"
+DOC = _SOURCE_DOC if _SOURCE_DOC.is_file() else Path("docs/scenario.md")
 
 _ATOM = r"(?:kg|km|mm|m|s|kN|N|kW|W|J|Pa|Hz|rad|deg|K)(?:\^-?\d+)?"
 _PRODUCT = rf"{_ATOM}(?: {_ATOM})*"
@@ -121,7 +123,7 @@ def _is_model(tp) -> bool:
 
 
 def _models_in(tp) -> tuple[list[type[BaseModel]], bool]:
-    """The model classes a field holds (through Optional, unions, list, dict) and whether
+    """The model classes a field holds (through Optional, unions and lists) and whether
     it holds an array of them."""
     out: list = []
     many = False
@@ -568,7 +570,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         print(f"{args.file}: out of date (run python -m ltdsim.schemadoc)")
         return 1
-    args.file.write_text(new, encoding="utf-8")
+    tmp = args.file.with_name(args.file.name + ".tmp")
+    tmp.write_text(new, encoding="utf-8")
+    tmp.replace(args.file)  # whole or not at all
     print(f"{args.file}: rewritten")
     return 0
 
