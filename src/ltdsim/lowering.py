@@ -133,9 +133,6 @@ def lower(s: Scenario) -> Lowered:
     cpl_model = np.zeros(nc, dtype=np.int64)
     cpl = np.zeros((nc, N_CCOL))
     sign0 = {"neutral": 0.0, "stretched": 1.0, "bunched": -1.0}[s.initial.couplers]
-    # the gears' relaxation time defaults to 4 steps; an adaptive method has no fixed
-    # step, so it takes the study's 1e-4 s as the step the default refers to
-    dt_ref = 1e-4 if s.solver.adaptive else s.solver.dt
     y0_extra: list[float] = []
     kinds = ["x"] * n + ["v"] * n  # what each state is, for the bs23 error weights
     nz = 0
@@ -153,7 +150,7 @@ def lower(s: Scenario) -> Lowered:
         row[P_KSOLID] = c.solid_stiffness
         if c.model in ("friction_wedge", "table"):
             row[P_ZOFF] = nz
-            row[P_RATE] = 1.0 / (c.tracking_time or 4.0 * dt_ref)
+            row[P_RATE] = 1.0 / c.tracking_time
             row[P_KLOCK] = c.k_locked
             row[P_F0] = released_force(c)
             # states: internal force (starting released, on the loading curve at 0);

@@ -303,8 +303,11 @@ class CouplerParams(_Strict):
     solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12, description="beyond travel, N/m")
     # friction_wedge and table
     k_locked: float | None = Field(None, gt=0.0, le=1e11, description="locked stiffness, N/m")
-    tracking_time: float | None = Field(None, gt=0.0, le=1.0,
-                                        description="internal-state time constant, s")
+    # the time the gear takes to pass between sliding on a curve and locked (the internal
+    # force's relaxation onto its curve): a property of the gear, the same for every
+    # solver and step; 0.4 ms, the time scale of the gear's own parts (docs/draftgear.md)
+    tracking_time: float = Field(4e-4, gt=0.0, le=1.0,
+                                 description="internal-state time constant, s")
     # table
     loading: Points | None = Field(None, description="[deflection m, force N]")
     unloading: Points | None = Field(None, description="[deflection m, force N]")

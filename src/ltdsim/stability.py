@@ -215,7 +215,7 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
     for j, c in enumerate(couplers):
         ks.append(stiffest(c))
         cs.append(c.damping)
-        if c.model in ("friction_wedge", "table") and c.tracking_time is not None:
+        if c.model in ("friction_wedge", "table"):
             lags.append((f"tracking_time of coupler {j + 1}", c.tracking_time))
     if any(v.brake is not None for v in scenario.vehicles):
         b = scenario.brake
