@@ -14,8 +14,8 @@ import ltdsim
 from conftest import PAPER, ROOT
 
 sys.path.insert(0, str(ROOT / "benchmarks"))
-import _reference_kernel  # noqa: E402
-import bench_kernel  # noqa: E402
+import _reference_kernel
+import bench_kernel
 
 
 def test_the_hand_written_kernel_gives_the_coupler_forces_of_simulate_in_draft_and_buff():
