@@ -1,26 +1,44 @@
-"""Kernel benchmark: the study's base scenario against a plain SciPy right-hand side.
+"""Kernel benchmark: the study's base scenario against a hand-written numba kernel and a
+plain SciPy right-hand side.
 
 Runs, in one process:
-  * ltdsim: the base scenario, case LHHL, 270 s, ode3 at dt = 1e-4 s, 10 vehicles,
-    after compilation, several times (median);
+  * the in-run reference: the base train (case LHHL's simplified couplers) driven in
+    force mode by :data:`FORCE_PROFILE`, 270 s, ode3 at dt = 1e-4 s, coupler forces
+    recorded every 1 ms, once by the whole ``ltdsim.simulate()`` (lowering, kernel, the
+    xarray result) and once by the plain hand-written numba kernel of
+    benchmarks/_reference_kernel.py; both compiled and warmed first, then in interleaved
+    rounds (the order alternating), CPU time of this process (``time.process_time``) and
+    wall time, medians; the coupler forces of the two are compared value by value;
+  * ltdsim: the base scenario, case LHHL (speed mode), 270 s, after compilation, several
+    times (median);
   * SciPy: the same model as a NumPy right-hand side (ltdsim.reference) under
     ``solve_ivp(method="RK23", rtol=1e-6)`` over the first seconds only;
+  * with ``--baseline REV`` (default: the commit before the engine's redesign), the
+    study case LHHL by this version and by ``REV`` (a fresh clone), each in child
+    processes, rounds interleaved, CPU time of the child's runs, medians;
 and prints a table, also written to benchmarks/results/bench_kernel.md and .json.
 Timings are ratios within this run; the machine is shared, so absolute seconds vary.
 
-Usage: python benchmarks/bench_kernel.py [--repeats 7] [--scipy-window 2.0]
+Usage: python benchmarks/bench_kernel.py [--repeats 7] [--rounds 11] [--scipy-window 2.0]
+       [--baseline REV | --baseline ""]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import resource
+import shutil
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 import tracemalloc
 from pathlib import Path
 
+import _reference_kernel
 import numpy as np
 from _results import publish
 from scipy.integrate import solve_ivp
@@ -29,16 +47,110 @@ import ltdsim
 from ltdsim.reference import make_rhs
 
 HERE = Path(__file__).resolve().parent
-PAPER = HERE.parent / "scenarios" / "paper.toml"
+ROOT = HERE.parent
+PAPER = ROOT / "scenarios" / "paper.toml"
 STUDY_SECONDS_PER_CASE = 854.7  # the study's Simulink time per case (paper §5)
+#: the commit before issue 14's engine redesign landed its later steps: the study case's
+#: time there is the baseline the redesign must not exceed
+BASELINE = "598d50a"
+#: traction demand of the force-mode case, [time s, force N]: from rest to the study's
+#: full 863 kN within 10 s, held, eased to cruise, a dynamic-brake application of 300 kN
+#: around the study's deceleration phase (120-130 s), cruise again; the traction curve
+#: (force, power and adhesion limits) clips it, as in ltdsim
+FORCE_PROFILE = [[0.0, 0.0], [5.0, 0.0], [15.0, 8.63e5], [40.0, 8.63e5], [50.0, 1.5e5],
+                 [115.0, 1.5e5], [125.0, -3.0e5], [135.0, -3.0e5], [140.0, 1.5e5],
+                 [270.0, 1.5e5]]
 
 
-def _time_ltdsim(sc, repeats: int):
+def force_case(sc):
+    """Scenario ``sc`` driven in force mode by :data:`FORCE_PROFILE`."""
+    return sc.with_overrides({"driver.mode": "force", "driver.force_profile": FORCE_PROFILE})
+
+
+def _clocks():
+    return time.process_time(), time.perf_counter()
+
+
+def _against_reference(sc, rounds: int) -> dict:
+    """``simulate(sc)`` against the hand-written kernel: CPU and wall seconds of each,
+    ``rounds`` interleaved rounds after a warm-up of both, and the largest difference of
+    their coupler forces."""
+    ref_force = _reference_kernel.simulate(sc)  # compile (or load) and warm both
+    ds = ltdsim.simulate(sc)
+    sim_force = ds.coupler_force.values
+    if sim_force.shape != ref_force.shape:
+        raise SystemExit(f"records differ: simulate {sim_force.shape}, reference "
+                         f"{ref_force.shape}")
+    diff = float(np.max(np.abs(sim_force - ref_force)))
+    runs = {"simulate": lambda: ltdsim.simulate(sc),
+            "reference": lambda: _reference_kernel.simulate(sc)}
+    times = {k: {"cpu": [], "wall": []} for k in runs}
+    for r in range(rounds):
+        for name in (("reference", "simulate") if r % 2 == 0 else ("simulate", "reference")):
+            c0, w0 = _clocks()
+            runs[name]()
+            c1, w1 = _clocks()
+            times[name]["cpu"].append(c1 - c0)
+            times[name]["wall"].append(w1 - w0)
+    return {"max_force_difference_N": diff, "values_compared": int(sim_force.size),
+            "max_abs_force_N": float(np.max(np.abs(ref_force))), "times": times}
+
+
+_CHILD = r"""
+import json, sys, time
+import ltdsim
+sc = ltdsim.load_scenario(sys.argv[1], case="LHHL")
+ltdsim.simulate(sc.with_overrides({"solver.t_end": 0.01}))  # compile or load
+ltdsim.simulate(sc)  # warm (fresh output memory)
+cpu = []
+for _ in range(int(sys.argv[2])):
+    c0 = time.process_time()
+    ltdsim.simulate(sc)
+    cpu.append(time.process_time() - c0)
+print(json.dumps(cpu))
+"""
+
+
+def _against_baseline(rev: str, rounds: int, runs: int) -> dict:
+    """CPU seconds of ``simulate()`` of the study case LHHL (270 s) by this version and by
+    ``rev``: per round one child process of each (the order alternating), ``runs`` runs
+    per child after a warm-up; returns each child's median per version and each round's
+    ratio this version / baseline."""
+    work = Path(tempfile.mkdtemp(prefix="ltdsim-bench-baseline-"))
+    try:
+        clone = work / "baseline"
+        subprocess.run(["git", "clone", "--quiet", "--shared", str(ROOT), str(clone)],
+                       check=True)
+        subprocess.run(["git", "-C", str(clone), "checkout", "--quiet", rev], check=True)
+        srcs = {"baseline": clone / "src", "this version": ROOT / "src"}
+        cpu = {k: [] for k in srcs}
+        cpu["round ratios"] = []
+        for r in range(rounds):
+            for name in (list(srcs) if r % 2 == 0 else list(srcs)[::-1]):
+                env = dict(os.environ, PYTHONPATH=str(srcs[name]))
+                out = subprocess.run([sys.executable, "-c", _CHILD, str(PAPER), str(runs)],
+                                     env=env, capture_output=True, text=True)
+                if out.returncode != 0:
+                    raise SystemExit(f"{name} failed:\n{out.stderr[-2000:]}")
+                got = json.loads(out.stdout.strip().splitlines()[-1])
+                cpu[name].append(statistics.median(got))
+                print(f"baseline round {r + 1}/{rounds}: {name} done", file=sys.stderr,
+                      flush=True)
+            cpu["round ratios"].append(cpu["this version"][-1] / cpu["baseline"][-1])
+        return cpu
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def _time_ltdsim(sc, repeats: int, cpus=None):
     walls, kernels = [], []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        c0, t0 = _clocks()
         ds = ltdsim.simulate(sc)
-        walls.append(time.perf_counter() - t0)
+        c1, t1 = _clocks()
+        walls.append(t1 - t0)
+        if cpus is not None:
+            cpus.append(c1 - c0)
         kernels.append(ds.attrs["wall_time_s"])
     return walls, kernels, ds
 
@@ -59,10 +171,19 @@ def main(argv=None) -> dict:
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--scipy-window", type=float, default=2.0, help="simulated seconds, s")
     ap.add_argument("--scipy-repeats", type=int, default=3)
+    ap.add_argument("--rounds", type=int, default=11,
+                    help="interleaved rounds of simulate() against the reference kernel")
+    ap.add_argument("--baseline", default=BASELINE,
+                    help="git revision whose study-case time is the baseline ('' to skip)")
+    ap.add_argument("--baseline-rounds", type=int, default=5)
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args(argv)
 
     sc = ltdsim.load_scenario(PAPER, case="LHHL")
+    ref = _against_reference(force_case(sc), args.rounds)
+    rt = ref["times"]
+    med = {k: {c: statistics.median(v[c]) for c in ("cpu", "wall")} for k, v in rt.items()}
+    per_round = [a / b for a, b in zip(rt["simulate"]["cpu"], rt["reference"]["cpu"])]
     n = sc.n_vehicles
     steps = sc.solver.n_steps
     t_sim = steps * sc.solver.dt
@@ -73,7 +194,9 @@ def main(argv=None) -> dict:
 
     # the first cases in a fresh process also pay for page-faulting fresh output memory
     cold_walls, _, _ = _time_ltdsim(sc, 2)
-    walls, kernels, ds = _time_ltdsim(sc, args.repeats)
+    cpus = []
+    walls, kernels, ds = _time_ltdsim(sc, args.repeats, cpus)
+    cpu = statistics.median(cpus)
     wall = statistics.median(walls)
     kern = statistics.median(kernels)
     tracemalloc.start()
@@ -95,9 +218,23 @@ def main(argv=None) -> dict:
     sp_per_rhs = sp / sol.nfev
 
     rows = [
-        ("ltdsim: seconds per case (270 s, dt 1e-4, ode3, all outputs)", f"{wall:.3f}"),
+        ("force-mode case: largest |coupler force, simulate() - reference kernel|, N "
+         f"(over {ref['values_compared']:,} values; largest |force| "
+         f"{ref['max_abs_force_N'] / 1e3:.0f} kN)", f"{ref['max_force_difference_N']:.3g}"),
+        ("force-mode case: reference kernel, CPU s (wall s)",
+         f"{med['reference']['cpu']:.3f} ({med['reference']['wall']:.3f})"),
+        ("force-mode case: whole simulate(), CPU s (wall s)",
+         f"{med['simulate']['cpu']:.3f} ({med['simulate']['wall']:.3f})"),
+        (f"ratio simulate() / reference kernel, CPU, median of the {args.rounds} rounds' "
+         "ratios (target <= 1.0)", f"{statistics.median(per_round):.3f}"),
+        ("ratio simulate() / reference kernel, CPU, of the medians",
+         f"{med['simulate']['cpu'] / med['reference']['cpu']:.3f}"),
+        ("ratio simulate() / reference kernel, wall, of the medians",
+         f"{med['simulate']['wall'] / med['reference']['wall']:.3f}"),
+        ("ltdsim: CPU seconds per case (270 s, dt 1e-4, ode3, all outputs)", f"{cpu:.3f}"),
+        ("ltdsim: seconds per case (270 s, dt 1e-4, ode3, all outputs), wall", f"{wall:.3f}"),
         ("ltdsim: seconds for the first case in a fresh process", f"{cold_walls[0]:.3f}"),
-        ("ltdsim: of which compiled kernel, s", f"{kern:.3f}"),
+        ("ltdsim: of which compiled kernel, wall s", f"{kern:.3f}"),
         ("ltdsim: vehicle-steps per second (kernel)", f"{n * steps / kern / 1e6:.1f} M"),
         (f"ltdsim: vehicle-steps per second (kernel, fastest of the {len(kernels)} runs: the "
          f"machine is shared)", f"{n * steps / min(kernels) / 1e6:.1f} M"),
@@ -117,11 +254,25 @@ def main(argv=None) -> dict:
          f"{sp_per_rhs / lt_per_rhs:.0f}x"),
         ("ratio study (Simulink, 854.7 s per case) / ltdsim", f"{STUDY_SECONDS_PER_CASE / wall:.0f}x"),
     ]
+    base = None
+    if args.baseline:
+        base = _against_baseline(args.baseline, args.baseline_rounds, 2)
+        b0 = statistics.median(base["baseline"])
+        b1 = statistics.median(base["this version"])
+        rows += [
+            (f"study case LHHL (speed mode, 270 s), whole simulate(), CPU s: baseline "
+             f"{args.baseline}", f"{b0:.3f}"),
+            ("study case LHHL, whole simulate(), CPU s: this version", f"{b1:.3f}"),
+            (f"ratio this version / {args.baseline}, median of the rounds' ratios (target "
+             "<= 1.0)", f"{statistics.median(base['round ratios']):.3f}"),
+            (f"ratio this version / {args.baseline}, of the medians", f"{b1 / b0:.3f}"),
+        ]
     print(f"process peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB",
           file=sys.stderr)
     result = {
         "vehicles": n, "steps": steps,
-        "seconds_per_case": wall, "kernel_seconds": kern, "cold_walls": cold_walls,
+        "seconds_per_case": wall, "cpu_seconds_per_case": cpu, "cpus": cpus,
+        "kernel_seconds": kern, "cold_walls": cold_walls,
         "walls": walls, "kernels": kernels,
         "vehicle_steps_per_s": n * steps / kern,
         "vehicle_steps_per_s_fastest": n * steps / min(kernels), "peak_bytes": peak, "first_call_s": warm,
@@ -130,10 +281,22 @@ def main(argv=None) -> dict:
         "ratio_scipy_same_step": fx_per_sim_s / lt_per_sim_s,
         "ratio_scipy_per_rhs": sp_per_rhs / lt_per_rhs,
         "rms_speed_error_m_s": float(np.sqrt(np.mean(ds.speed_error.values ** 2))),
+        "force_case": {"profile": FORCE_PROFILE, **ref,
+                       "ratio_cpu": statistics.median(per_round),
+                       "ratio_cpu_of_medians": med["simulate"]["cpu"] / med["reference"]["cpu"],
+                       "ratio_wall": med["simulate"]["wall"] / med["reference"]["wall"],
+                       "ratio_cpu_per_round": per_round},
+        "baseline": None if base is None else {"revision": args.baseline, "cpu_s": base},
     }
+    how = (f"; simulate() against the reference kernel: {args.rounds} interleaved rounds "
+           "after a warm-up of both, CPU time of this process (time.process_time), each "
+           "round's ratio, medians")
+    if base is not None:
+        how += (f"; study case against {args.baseline}: {args.baseline_rounds} rounds of one "
+                "child process per version, 2 runs each, CPU time, each round's ratio, medians")
     publish(args.out, "bench_kernel",
             f"Kernel benchmark, {{stamp}}; medians of {len(walls)} ltdsim runs after 2 "
-            f"warm-up runs, and of {len(sp_walls)} scipy runs", rows, result=result)
+            f"warm-up runs, and of {len(sp_walls)} scipy runs{how}", rows, result=result)
     return result
 
 

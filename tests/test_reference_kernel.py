@@ -1,0 +1,32 @@
+"""A second solver of the benchmark's train: the plain hand-written numba kernel of
+benchmarks/_reference_kernel.py (its own stepping, force balance, look-ups and
+recording, read from the Scenario rather than from ltdsim's lowered tables) against
+``ltdsim.simulate()``. Agreement to round-off shows the benchmark times the same train."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+import ltdsim
+
+from conftest import PAPER, ROOT
+
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import _reference_kernel
+import bench_kernel
+
+
+def test_the_hand_written_kernel_gives_the_coupler_forces_of_simulate_in_draft_and_buff():
+    sc = bench_kernel.force_case(ltdsim.load_scenario(PAPER, case="LHHL")).with_overrides({
+        # full traction, then a dynamic-brake application that bunches the train
+        "driver.force_profile": [[0.0, 0.0], [1.0, 8.63e5], [6.0, 8.63e5], [8.0, -4.0e5],
+                                 [15.0, -4.0e5]],
+        "solver.t_end": 15.0})
+    ref = _reference_kernel.simulate(sc)
+    ds = ltdsim.simulate(sc)
+    sim = ds.coupler_force.values
+    assert sim.shape == ref.shape == (15001, 9)
+    assert ref.max() > 3e5 and ref.min() < -1e5  # both gear branches (k2, k3 and k1) loaded
+    assert np.max(np.abs(sim - ref)) <= 1e-9 * np.max(np.abs(ref))
