@@ -38,8 +38,9 @@ glassy stiffness) and a rate speed ``v_r`` (``rate_speed``, m/s). The curves::
 with the return ratio ``0 < r <= 1`` (``return_ratio``: the share of the static
 loading force given back on release). So the loading stiffness ``R_l(v) f_s'(x)`` and
 the unloading stiffness ``r R_u(v) f_s'(x)`` both rise with speed, from the static
-curve at ``v = 0`` towards ``(1 + a) f_s'`` at impact speeds, and a quasi-static closing and release absorbs the
-share ``1 - r`` of the work done on the gear, rising with speed when ``a_u < a_l``.
+curve at ``v = 0`` towards ``(1 + a) f_s'`` at impact speeds; a quasi-static closing
+and release absorbs the share ``1 - r`` of the work done on the gear, and at speed
+``v`` the share ``1 - r R_u(v) / R_l(v)``, which rises with speed when ``a_u < a_l``.
 ``f_u <= f_l`` everywhere needs ``r <= 1`` and ``r a_u <= a_l``. The exponential fade
 has a finite slope at ``v = 0`` (``a / v_r`` per m/s): the speed dependence acts like a
 damper of coefficient ``a f_s(x) / v_r`` (N s/m) near rest, which a fixed-step
