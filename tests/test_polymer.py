@@ -4,7 +4,7 @@ Checked against things independent of the law's code:
 (a) over a closed deflection loop the energy the gear absorbs (the integral of F dx)
     equals the area between its loading and unloading curves, written here in closed
     form, less the corners its locked transitions cut (also closed form), within 1 %;
-    the corners are 1.5-8 % of the area with the preset's locked stiffness;
+    the corners are 1.5-7 % of the area with the preset's locked stiffness;
 (b) the loading and unloading stiffness measured on a driven gear rise with the closing
     speed as the model's closed form says (hypothesis over speeds);
 (c) an impact of two wagons through the gear conserves momentum to 1e-9 and the kinetic

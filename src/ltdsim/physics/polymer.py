@@ -15,7 +15,7 @@ a loading curve ``f_l``, an unloading curve ``f_u`` below it, the force clipped 
 the band between them by one internal force ``F1`` (:func:`ltdsim.physics.draftgear.
 hysteresis`), and makes both curves functions of the closing speed. The functional
 form below is ltdsim's choice (the papers above give the behaviour, not a closed form
-that could be read here); docs/draftgear.md#polymer-draft-gear gives the reasoning.
+that could be read here); docs/draftgear.md, "Polymer draft gear", gives the reasoning.
 
 Static (quasi-static, closing speed 0) loading curve, a linear spring plus a power-law
 stiffening, N, for gear deflection ``x >= 0`` (m)::
