@@ -1,7 +1,8 @@
 """A single draft gear on a test rig: prescribed deflection, or a mass driven by a force.
 
-The rig uses the kernel's own coupler code (:func:`ltdsim.kernel.coupler_force`) and
-Runge-Kutta tableaux, so a gear behaves here exactly as it does in a train.
+The rig uses the train's own coupler code (:func:`ltdsim.coupler_models.coupler_force`,
+the coupler lowered by :func:`~ltdsim.coupler_models.lower_coupler`) and Runge-Kutta
+tableaux, so a gear behaves here exactly as it does in a train.
 
 * ``drive_deflection``: the gear deflection ``d(t)`` (and its rate) is prescribed; the
   gear's internal states are integrated; returns its force. This draws force-deflection

@@ -8,11 +8,11 @@ arrays and the :class:`Outputs`. Their tables are flat arrays whose columns
 :mod:`ltdsim.layout` (vehicles, consists, traction, driver) and
 :mod:`ltdsim.coupler_models` (couplers, whose force comes from that module's compiled
 dispatch :func:`~ltdsim.coupler_models.coupler_force`) lay out; the states that carry
-over between calls (controller, bs23 step control, the right-hand side's signals) are numpy records with named fields
-(``CONTROLLER``, ``STEPPER``, ``SIGNALS``), read as ``st["a_dem"]``, a form that also
-runs as plain Python (``NUMBA_DISABLE_JIT=1``). Numba compiles a kernel once per set of
-argument types and finds it in its on-disk cache by the classes' import names, so the
-classes live here at module level.
+over between calls (controller, bs23 step control, the right-hand side's signals) are
+numpy records with named fields (``CONTROLLER``, ``STEPPER``, ``SIGNALS``), read as
+``st["a_dem"]``, a form that also runs as plain Python (``NUMBA_DISABLE_JIT=1``).
+Numba compiles a kernel once per set of argument types and finds it in its on-disk
+cache by the classes' import names, so the classes live here at module level.
 
 The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of each
 vehicle from its initial position (m), its speed (m/s), and the internal states of the

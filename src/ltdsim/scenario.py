@@ -838,6 +838,24 @@ class Scenario(_Strict):
         except ValidationError as exc:
             raise ScenarioError(source, _problems(exc)) from None
 
+    @classmethod
+    def from_saved(cls, data: dict, source: str = "result") -> "Scenario":
+        """:meth:`from_dict` of a scenario saved with a result (its ``scenario_json``).
+
+        Results written before each coupler model had its own keys saved every coupler
+        key for every model (the keys of other models as null or at their defaults, all
+        unused by the model). Those are dropped here, for a saved dump only: in a file
+        a key of another model is refused.
+        """
+        data = copy.deepcopy(data)
+        default = (data.get("couplers") or {}).get("default")
+        if isinstance(default, dict):
+            model = COUPLER_CLASSES.get(default.get("model", DEFAULT_COUPLER_MODEL))
+            if model is not None:
+                data["couplers"]["default"] = {k: v for k, v in default.items()
+                                               if k in model.model_fields}
+        return cls.from_dict(data, source)
+
     def to_dict(self) -> dict:
         """Plain-data form (vehicles expanded, one entry each)."""
         return self.model_dump(mode="json")

@@ -13,8 +13,9 @@ separating faces together. Without slack the coupling is a continuous spring-dam
 Solid closure: a gear can travel only so far. Beyond its ``travel`` (m of gear
 deflection past the slack) it closes solid and :func:`solid_closure` adds
 ``solid_stiffness * (|e| - travel)`` in the direction of the deflection. The hysteretic
-gears (:mod:`ltdsim.physics.draftgear`, through the kernel) and the linear and simplified
-couplers use this same law; ``travel = inf`` is a gear without a stated limit.
+gears (:mod:`ltdsim.physics.draftgear`, through its ``gear_force``) and the linear and
+simplified couplers use this same law; ``travel = inf`` is a gear without a stated limit.
+A hysteretic gear first splits the coupler deflection with :func:`gear_deflection`.
 """
 
 from __future__ import annotations

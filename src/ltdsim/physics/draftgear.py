@@ -33,8 +33,11 @@ The third state ``v0`` latches the closing speed at the moment of impact (while 
 coupling is in its slack it follows the closing speed; in contact it holds), the
 "initial impact velocity" of the lubrication factor ``S(v0, x)`` of Eq. 2.
 
-All functions take magnitudes: ``x = |e| >= 0`` and ``v = d|e|/dt`` (> 0 loading). The
-kernel applies the sign of draft or buff.
+All functions take magnitudes: ``x = |e| >= 0`` and ``v = d|e|/dt`` (> 0 loading); the
+sign of draft or buff comes from :func:`ltdsim.physics.couplers.gear_deflection`. What
+every hysteretic gear shares lives here beside the curves: :func:`gear_force` (solid
+closure, the band, :func:`hysteresis`) and :func:`relax` (the states' return to rest in
+the slack); ``ltdsim.coupler_models._gear`` only picks each model's curves.
 """
 
 from __future__ import annotations
