@@ -202,10 +202,10 @@ class CouplerModel:
     name: str
     columns: tuple[str, ...]
     lower: Callable[[object, list], dict]
+    stiffest: Callable[[object], float]
     states: Callable[[object], tuple[str, ...]] = lambda c: ()
     released: Callable[[object], float] = lambda c: 0.0
     stiffness: Callable[[object, str], float | None] = lambda c, which: None
-    stiffest: Callable[[object], float] = lambda c: 0.0
     #: the most internal states any coupler of this model has
     max_states: int = 0
 
@@ -313,19 +313,19 @@ def _wedge_released(c) -> float:
 #: the registry, in code order (:data:`MODEL_NAMES`)
 MODELS: tuple[CouplerModel, ...] = (
     CouplerModel("linear", LINEAR_COLUMNS, _lower_linear,
-                 stiffness=lambda c, which: c.stiffness,
-                 stiffest=lambda c: c.stiffness + _solid(c)),
+                 stiffest=lambda c: c.stiffness + _solid(c),
+                 stiffness=lambda c, which: c.stiffness),
     CouplerModel("simplified", SIMPLIFIED_COLUMNS, _lower_simplified,
-                 stiffness=lambda c, which: c.k1 if which == "low" else c.k2 + c.k3,
-                 stiffest=lambda c: max(c.k1, c.k2 + c.k3) + _solid(c)),
-    CouplerModel("friction_wedge", WEDGE_COLUMNS, _lower_wedge, states=_wedge_states,
-                 released=_wedge_released, stiffest=_wedge_stiffest, max_states=3),
+                 stiffest=lambda c: max(c.k1, c.k2 + c.k3) + _solid(c),
+                 stiffness=lambda c, which: c.k1 if which == "low" else c.k2 + c.k3),
+    CouplerModel("friction_wedge", WEDGE_COLUMNS, _lower_wedge, _wedge_stiffest,
+                 states=_wedge_states, released=_wedge_released, max_states=3),
     # (a table gear closes solid at its last point when it states no travel)
-    CouplerModel("table", TABLE_COLUMNS, _lower_table, states=lambda c: ("force",),
-                 released=lambda c: float(c.loading[0][1]),
-                 stiffest=lambda c: c.k_locked + max(_curve_slope(c.loading),
-                                                     _curve_slope(c.unloading))
-                 + c.solid_stiffness, max_states=1),
+    CouplerModel("table", TABLE_COLUMNS, _lower_table,
+                 lambda c: c.k_locked + max(_curve_slope(c.loading),
+                                            _curve_slope(c.unloading)) + c.solid_stiffness,
+                 states=lambda c: ("force",), released=lambda c: float(c.loading[0][1]),
+                 max_states=1),
 )
 REGISTRY: dict[str, CouplerModel] = {m.name: m for m in MODELS}
 assert tuple(REGISTRY) == MODEL_NAMES, "MODELS must follow MODEL_NAMES (their codes)"
