@@ -134,7 +134,10 @@ def test_every_vehicle_traction_driver_and_brake_key_lands_in_its_named_column()
     placed[Traction] |= set(TRACTION)
     placed[PID] |= {"acceleration_of"}
 
-    # driver: PID and brake control
+    # driver: the speed profile, PID and brake control (speed_profile, pid and
+    # brake_controller of Driver: placed in the other test's list)
+    np.testing.assert_array_equal(low.prof_t, [0.0, 10.0])
+    np.testing.assert_array_equal(low.prof_y, [0.0, 5.0])
     assert drv[col(D, "mode")] == L.DRIVER_MODES.index("speed")
     for key in ("kp", "ki", "kd", "n", "ts"):
         assert drv[col(D, key)] == PIDKEYS[key]
@@ -168,3 +171,97 @@ def test_table_widths_follow_their_column_names():
     low = lower(scenario())
     assert low.veh.shape[1] == L.N_VCOL and low.cons.shape[1] == L.N_KCOL
     assert low.trac.shape == (L.N_TRAC,) and low.drv.shape == (L.N_DRV,)
+
+
+def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
+    from ltdsim.scenario import Driver, Initial, Locomotive, Solver, Track
+
+    masses = [1.2e5, 1.1e5, 8e4, 1.15e5, 7e4]
+    vehicles = [{"name": f"v{i}", "mass": m, "length": 20.0 + i, "powered": i in (0, 3),
+                 "brake": {"cylinder_force": 3e4, "rigging_ratio": 6.0}}
+                for i, m in enumerate(masses)]
+    locos = [{"name": "lead", "vehicles": [0], "max_force": 3.1e5, "time_constant": 1.3,
+              "jerk_limit": 0.21},
+             {"name": "mid", "vehicles": [3], "max_power": 4.4e6, "adhesion_mass": 1.7e5,
+              "time_constant": 0.0, "jerk_limit": 0.0,
+              "notch_profile": [[0.0, 2.0], [5.0, -3.0]],
+              "brake_control": True}]
+    track = {"gradient": [[0.0, 0.0], [130.0, 0.004]], "curve": [[0.0, 0.0], [70.0, 450.0]],
+             "curve_h": 610.0, "gravity": 9.79}
+    solver = {"method": "bs23", "dt": 2e-4, "t_end": 3.0, "output_interval": 2e-3,
+              "rtol": 3e-6, "atol": 2e-7, "max_step": 0.03}
+    initial = {"velocities": [1.1, 1.2, 1.3, 1.4, 1.5], "couplers": "bunched"}
+    driver = {"mode": "notch", "notch_profile": [[0.0, 3.0], [2.0, 5.0]],
+              "brake_profile": [[1.0, 0.5]], "brake_positions": [[40.0, 0.7]]}
+    sc = build({"solver": solver, "vehicles": vehicles, "locomotives": locos,
+                "couplers": {"default": {"model": "linear", "stiffness": 5e6, "slack": 0.02}},
+                "traction": {"max_force": 4e5, "max_power": 5e6, "adhesion_mass": 2e5,
+                             "time_constant": 0.9, "jerk_limit": 0.5},
+                "track": track, "driver": driver, "initial": initial})
+    low = lower(sc)
+    K, V, T, D = L.CONSIST_COLUMNS, L.VEHICLE_COLUMNS, L.TRACTION_SLOTS, L.DRIVER_SLOTS
+    cons, tables = low.cons, low.ctab
+    # locomotives: own keys, the rest from [traction]
+    assert cons[0, col(K, "max_force")] == 3.1e5 and cons[1, col(K, "max_force")] == 4e5
+    assert cons[0, col(K, "max_power")] == 5e6 and cons[1, col(K, "max_power")] == 4.4e6
+    assert cons[0, col(K, "adhesion_mass")] == 2e5
+    assert cons[1, col(K, "adhesion_mass")] == 1.7e5
+    assert cons[0, col(K, "time_constant")] == 1.3 and cons[1, col(K, "time_constant")] == 0.0
+    assert cons[0, col(K, "lag_state")] >= 0 and cons[1, col(K, "lag_state")] == -1
+    share = 3.1e5 / (3.1e5 + 4e5)  # of the force sum: the jerk limit's share
+    assert cons[0, col(K, "rate_limit")] == pytest.approx(0.21 * sum(masses) * share,
+                                                          rel=1e-14)
+    assert [cons[k, col(K, "speed_vehicle")] for k in (0, 1)] == [0, 3]
+    assert low.veh[3, col(V, "consist")] == 1 and low.veh[3, col(V, "share")] == 1.0
+    n, off = int(cons[1, col(K, "notch_len")]), int(cons[1, col(K, "notch_offset")])
+    np.testing.assert_array_equal(tables[off:off + 2 * n], [0.0, 5.0, 2.0, -3.0])
+    assert cons[0, col(K, "notch_len")] == 0  # the lead follows the driver
+    # brake_control: the mid locomotive is a control point; the signal reaches vehicle 4
+    # from it, not from the lead
+    p0 = low.p0
+    assert low.veh[4, col(V, "brake_delay")] == pytest.approx((p0[3] - p0[4]) / 250.0,
+                                                              rel=1e-14)
+    # track: grade and curvature on merged breakpoints; curve constant; gravity
+    np.testing.assert_array_equal(low.track_pos, [0.0, 70.0, 130.0])
+    np.testing.assert_array_equal(low.track_grade, [0.0, 0.0, 0.004])
+    np.testing.assert_array_equal(low.track_curv, [0.0, 1 / 450.0, 1 / 450.0])
+    assert low.curve_h == 610.0 and low.trac[col(T, "gravity")] == 9.79
+    # solver
+    assert low.adaptive and low.dt == 2e-4 and low.max_step == 0.03
+    assert low.record_every == 10 and low.n_steps == 15000  # 3 s / 2e-4 s
+    nv = len(masses)
+    assert (low.rtol[:nv] == 0.0).all() and (low.rtol[nv:] == 3e-6).all()
+    assert (low.atol[:2 * nv] == 2e-7).all()
+    assert low.atol[low.cons[0, col(K, "lag_state")].astype(int)] == pytest.approx(2e-7 * 1e6)
+    # driver: notch mode and its profile; brake schedule and position triggers
+    assert low.drv[col(D, "mode")] == L.DRIVER_MODES.index("notch")
+    np.testing.assert_array_equal(low.prof_t, [0.0, 2.0])
+    np.testing.assert_array_equal(low.prof_y, [3.0, 5.0])
+    for key, pts in (("brake_schedule", [1.0, 0.5]), ("brake_positions", [40.0, 0.7])):
+        off, n = int(low.drv[col(D, key)]), int(low.drv[col(D, key + "_len")])
+        assert n == 1
+        np.testing.assert_array_equal(tables[off:off + 2], pts)
+    # initial: speeds per vehicle, couplers at the buff end of their slack
+    np.testing.assert_array_equal(low.y0[nv:2 * nv], initial["velocities"])
+    np.testing.assert_array_equal(low.d0, -0.01)
+    # initial speed of the whole train; a force profile
+    other = sc.with_overrides({"initial.velocities": None, "initial.speed": 2.5,
+                               "driver.mode": "force",
+                               "driver.force_profile": [[0.0, 1e5], [1.0, -2e4]],
+                               "driver.brake_profile": None, "driver.brake_positions": None})
+    low2 = lower(other)
+    np.testing.assert_array_equal(low2.y0[nv:2 * nv], 2.5)
+    assert low2.drv[col(D, "mode")] == L.DRIVER_MODES.index("force")
+    np.testing.assert_array_equal(low2.prof_t, [0.0, 1.0])
+    np.testing.assert_array_equal(low2.prof_y, [1e5, -2e4])
+    placed = {
+        Driver: {"mode", "notch_profile", "brake_profile", "brake_positions",
+                 "force_profile", "speed_profile", "pid", "brake_controller"},
+        Locomotive: {"name", "vehicles", "max_force", "max_power", "adhesion_mass",
+                     "time_constant", "jerk_limit", "notch_profile", "brake_control"},
+        Track: set(track),
+        Solver: set(solver) | {"stability_check"},  # (a check at validation)
+        Initial: {"speed", "velocities", "couplers"},
+    }
+    for cls, keys in placed.items():
+        assert set(cls.model_fields) <= keys, (cls.__name__, set(cls.model_fields) - keys)
