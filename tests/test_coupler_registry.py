@@ -204,13 +204,15 @@ def test_an_override_that_keeps_the_model_merges_with_the_default():
                                                           base.slack, base.travel)
 
 
-def test_an_override_that_changes_the_model_keeps_only_the_slack():
+def test_an_override_that_changes_the_model_keeps_only_the_shared_keys():
     sc = _with_override({"index": 2, "model": "linear", "stiffness": 4e6})
     c = sc.coupler(2)
     assert c.model == "linear" and c.stiffness == 4e6
-    assert c.slack == FULL["simplified"]["slack"]
-    # the default's simplified damping and travel do not carry over to the new gear
-    assert c.damping == 0.0 and c.travel is None
+    default = FULL["simplified"]
+    assert (c.slack, c.travel, c.solid_stiffness) == (default["slack"], default["travel"],
+                                                      default["solid_stiffness"])
+    # the default's simplified damping does not carry over to the linear coupler
+    assert c.damping == 0.0 != default["damping"]
     assert sc.coupler(1).model == sc.coupler(3).model == "simplified"
     low = lower(sc)
     assert list(low.cpl_model) == [MODEL_NAMES.index(m) for m in

@@ -271,6 +271,12 @@ class _CouplerBase(_Strict):
         """Model-specific consistency checks (ValueError with one line)."""
 
 
+#: the keys every coupler model has, besides preset and model (an override that
+#: changes the model keeps the default's values of these)
+SHARED_COUPLER_KEYS = tuple(k for k in _CouplerBase.model_fields if k not in ("preset",
+                                                                              "model"))
+
+
 class LinearCoupler(_CouplerBase):
     """Linear spring-damper coupler with slack (physics.couplers.coupler_linear)."""
 
@@ -468,11 +474,13 @@ CouplerOverride = create_model(
 class Couplers(_Strict):
     """``[couplers.default]`` and its ``[[couplers.override]]`` tables.
 
-    An override changes the keys it gives for coupler ``index``. An override that
-    names a ``preset``, or a ``model`` other than the default's, describes another gear:
-    it keeps only the default's ``slack`` (the coupling's free play, not the gear's)
-    and takes every other key from itself (and its preset), so the default's keys of
-    its own model never reach a coupler of another model.
+    An override changes the keys it gives for coupler ``index``. An override with a
+    ``model`` other than the default's keeps only the default's keys that every model
+    shares (:data:`SHARED_COUPLER_KEYS`: slack, travel, solid stiffness) and takes the
+    new model's own keys from itself, so the default's keys of its own model never
+    reach a coupler of another model. An override that names a ``preset`` describes
+    another gear: it keeps only the default's ``slack`` (the coupling's free play, not
+    the gear's) and takes every other key from itself and its preset.
     """
 
     default: Coupler
@@ -824,9 +832,12 @@ class Scenario(_Strict):
         params = default.model_dump()
         for o in overrides:
             changed = o.model_dump(exclude_none=True, exclude={"index"})
-            if "preset" in changed or changed.get("model", params["model"]) != params["model"]:
-                # another gear: only the coupling's slack carries over
+            if "preset" in changed:  # another gear: only the coupling's slack carries over
                 params = {"slack": params["slack"]}
+            elif changed.get("model", params["model"]) != params["model"]:
+                # another model: the keys every model shares carry over, not the old
+                # model's own
+                params = {k: params[k] for k in SHARED_COUPLER_KEYS}
             params.update(changed)
         return _COUPLER_ADAPTER.validate_python(params)
 
