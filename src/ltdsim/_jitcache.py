@@ -14,19 +14,24 @@ from pathlib import Path
 
 import numba
 
+#: modules without compiled code whose constants the kernels freeze
+LAYOUTS = ("layout.py", "lowering.py")
+
+
 def source_hash() -> str:
     """Hash of the package's compiled modules and the numba version (12 hex digits).
 
     The compiled modules are found, not listed: every module that mentions numba (a
-    hand-kept list would go stale silently and load old kernels), plus lowering.py,
-    whose array-layout constants numba freezes into the kernels as globals. Editing a
-    module that numba does not compile leaves the cache valid.
+    hand-kept list would go stale silently and load old kernels), plus layout.py and
+    lowering.py, whose column constants numba freezes into the kernels as globals
+    (coupler_models.py, with the coupler table's, compiles code and is found anyway).
+    Editing a module that numba does not compile leaves the cache valid.
     """
     here = Path(__file__).parent
     h = hashlib.sha256(numba.__version__.encode())
     for path in sorted(here.rglob("*.py")):
         text = path.read_bytes()
-        if path.name != "_jitcache.py" and (b"numba" in text or path.name == "lowering.py"):
+        if path.name != "_jitcache.py" and (b"numba" in text or path.name in LAYOUTS):
             h.update(str(path.relative_to(here)).encode())
             h.update(text)
     return h.hexdigest()[:12]

@@ -99,7 +99,7 @@ def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
             raise ScenarioError("--case", [("", f"{file} is a saved result of case "
                                                 f"{held or '(none)'}; --case chooses a case of "
                                                 "a scenario file")])
-        return ds, Scenario.from_dict(saved, str(file))
+        return ds, Scenario.from_saved(saved, str(file))
     sc = load_scenario(file, case=case)
     if overrides:
         sc = sc.with_overrides(parse_set(overrides), source="--set")

@@ -142,7 +142,7 @@ def reference_corners(profile) -> pd.DataFrame:
 def _scenario(ds: xr.Dataset, scenario: Scenario | None) -> Scenario:
     if scenario is not None:
         return scenario
-    return Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+    return Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
 
 
 def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
@@ -201,7 +201,7 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
     acc = np.abs(ds.acceleration.values[:, ~powered])
     wagons = np.flatnonzero(~powered)
     corners = reference_corners(np.column_stack(rounded_profile(sc.driver.speed_profile)))
-    k = np.array([_draft_stiffness(sc.coupler(j)) for j in range(sc.n_couplers)])
+    k = np.array([_stiffness(sc.coupler(j), "draft") for j in range(sc.n_couplers)])
     lead = sc.consists()[0].vehicles[0]
     held = np.nan
     if lead == 0:
@@ -231,14 +231,17 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
     }
 
 
-def _draft_stiffness(c) -> float:
-    """Stiffness of a coupler in draft at rest, N/m (linear: its stiffness; simplified:
-    k2 + k3, the nonlinear term unfaded)."""
-    if c.model == "linear":
-        return float(c.stiffness)
-    if c.model == "simplified":
-        return float(c.k2 + c.k3)
-    raise ValueError(f"no draft stiffness for a {c.model!r} coupler: linearise it by hand")
+def _stiffness(c, which: str) -> float:
+    """Linearised stiffness of a coupler, N/m: in draft at rest ("draft": a simplified
+    coupler's k2 + k3, the nonlinear term unfaded) or in buff ("buff": k1); a linear
+    coupler's stiffness either way (the registry's, ltdsim.coupler_models)."""
+    from ltdsim.coupler_models import linearised_stiffness
+
+    k = linearised_stiffness(c, "high" if which == "draft" else "low")
+    if k is None:
+        raise ValueError(f"no {which} stiffness for a {c.model!r} coupler: linearise it by "
+                         "hand")
+    return float(k)
 
 
 def closed_loop_modes(scenario: Scenario, stiffness: str | float = "draft",
@@ -274,10 +277,8 @@ def closed_loop_modes(scenario: Scenario, stiffness: str | float = "draft",
     nc = n - 1
     params = [scenario.coupler(j) for j in range(nc)]
     if isinstance(stiffness, str):
-        if stiffness == "draft":
-            k = [_draft_stiffness(c) for c in params]
-        elif stiffness == "buff":
-            k = [c.k1 if c.model == "simplified" else c.stiffness for c in params]
+        if stiffness in ("draft", "buff"):
+            k = [_stiffness(c, stiffness) for c in params]
         else:
             raise ValueError(f"stiffness must be 'draft', 'buff' or N/m, got {stiffness!r}")
     else:

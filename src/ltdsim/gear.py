@@ -1,7 +1,8 @@
 """A single draft gear on a test rig: prescribed deflection, or a mass driven by a force.
 
-The rig uses the kernel's own coupler code (:func:`ltdsim.kernel.coupler_force`) and
-Runge-Kutta tableaux, so a gear behaves here exactly as it does in a train.
+The rig uses the train's own coupler code (:func:`ltdsim.coupler_models.coupler_force`,
+the coupler lowered by :func:`~ltdsim.coupler_models.lower_coupler`) and Runge-Kutta
+tableaux, so a gear behaves here exactly as it does in a train.
 
 * ``drive_deflection``: the gear deflection ``d(t)`` (and its rate) is prescribed; the
   gear's internal states are integrated; returns its force. This draws force-deflection
@@ -20,9 +21,14 @@ import numpy as np
 import xarray as xr
 from numba import njit
 
+from ltdsim.coupler_models import (
+    N_GEAR_STATES,
+    coupler_force,
+    lower_coupler,
+    released_force,
+)
 from ltdsim.integrators import get_tableau
-from ltdsim.kernel import _interp, coupler_force
-from ltdsim.lowering import N_GEAR_STATES, lower, released_force
+from ltdsim.kernel import _interp
 from ltdsim.scenario import CouplerParams, Scenario
 
 MODE_DEFLECTION, MODE_FORCE = 0, 1
@@ -37,7 +43,7 @@ def _rig(mode, model, cpl, ctab, mass, t_tab, a_tab, b_tab, dt, n_steps, A, B, C
     ny = y.shape[0]
     ns = B.shape[0]
     # the coupler's index typed int64, not as the literal 0 (a type of its own): the rig
-    # then uses the gear function the train kernels compiled (kernel._gear)
+    # then uses the gear function the train kernels compiled (coupler_models._gear)
     j = np.int64(0)
     K = work[0:ns * ny]
     ytmp = work[ns * ny:ns * ny + ny]
@@ -82,19 +88,13 @@ def _rig(mode, model, cpl, ctab, mass, t_tab, a_tab, b_tab, dt, n_steps, A, B, C
 
 
 def _lowered_gear(params: CouplerParams, dt: float):
-    """Kernel arrays for one coupler (a two-vehicle stand-in train)."""
-    # (the stand-in's 1 kg vehicles are never simulated: the rig has its own dynamics,
-    # so the train's step-stability check does not apply)
-    sc = Scenario.from_dict({
-        "solver": {"dt": dt, "t_end": max(dt, 1e-3), "output_interval": dt,
-                   "stability_check": False},
-        "vehicles": [{"name": "a", "mass": 1.0, "length": 1.0, "powered": True},
-                     {"name": "b", "mass": 1.0, "length": 1.0}],
-        "couplers": {"default": params.model_dump(exclude_none=True)},
-        "traction": {"max_force": 1.0, "max_power": 1.0, "adhesion_mass": 1.0},
-    }, "gear rig")
-    low = lower(sc)
-    return low.cpl_model[0], low.cpl, low.ctab
+    """Kernel arrays for one coupler: its model code, its row of the coupler table
+    (shape ``(1, N_CCOL)``) and the table store, lowered by
+    :func:`ltdsim.coupler_models.lower_coupler` as a train's coupler is (neutral
+    start)."""
+    tables = [0.0]
+    one = lower_coupler(params, tables)
+    return one.code, one.row.reshape(1, -1).copy(), np.array(tables, dtype=float)
 
 
 @dataclass
@@ -133,8 +133,9 @@ def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, 
 
 def _run_rig(params, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method) -> _Run:
     model, cpl, ctab = _lowered_gear(params, dt)
-    # a released hysteretic gear starts on its loading curve
-    f0 = released_force(params) if params.model in ("friction_wedge", "table") else 0.0
+    # a released hysteretic gear starts on its loading curve (its internal force, the
+    # first state)
+    f0 = released_force(params)
     return integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
                          f0)
 

@@ -5,12 +5,14 @@ take a handful of named structures (``NamedTuple`` classes of arrays, below): th
 :class:`Train`, its :class:`Couplers`, the :class:`Driver`, the :class:`Controller`'s
 state, the step grid (:class:`FixedStep` or :class:`Adaptive`), the :class:`Work`
 arrays and the :class:`Outputs`. Their tables are flat arrays whose columns
-:mod:`ltdsim.lowering` lays out; the states that carry over between calls (controller,
-bs23 step control, the right-hand side's signals) are numpy records with named fields
-(``CONTROLLER``, ``STEPPER``, ``SIGNALS``), read as ``st["a_dem"]``, a form that also
-runs as plain Python (``NUMBA_DISABLE_JIT=1``). Numba compiles a kernel once per set of
-argument types and finds it in its on-disk cache by the classes' import names, so the
-classes live here at module level.
+:mod:`ltdsim.layout` (vehicles, consists, traction, driver) and
+:mod:`ltdsim.coupler_models` (couplers, whose force comes from that module's compiled
+dispatch :func:`~ltdsim.coupler_models.coupler_force`) lay out; the states that carry
+over between calls (controller, bs23 step control, the right-hand side's signals) are
+numpy records with named fields (``CONTROLLER``, ``STEPPER``, ``SIGNALS``), read as
+``st["a_dem"]``, a form that also runs as plain Python (``NUMBA_DISABLE_JIT=1``).
+Numba compiles a kernel once per set of argument types and finds it in its on-disk
+cache by the classes' import names, so the classes live here at module level.
 
 The state vector is ``y = [x_0..x_(n-1), v_0..v_(n-1), z...]``: displacement of each
 vehicle from its initial position (m), its speed (m/s), and the internal states of the
@@ -22,7 +24,7 @@ every continuous quantity is a pure function of ``(t, y)``, so any Runge-Kutta m
 can evaluate it any number of times per step.
 
 Compiling. The small helpers are inlined by numba into their callers
-(``inline="always"``). The large ones (:func:`rhs`, :func:`_gear`, :func:`_record`,
+(``inline="always"``). The large ones (:func:`rhs`, :func:`~ltdsim.coupler_models._gear`, :func:`_record`,
 :func:`_controller`, :func:`_brake_commands`) are compiled once each and inlined by
 LLVM instead (``forceinline=True``): numba's own inlining copies and types a function's
 whole body again at every call site, and with the right-hand side then called from
@@ -44,10 +46,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ltdsim.lowering import (
-    C_LINEAR,
-    C_SIMPLIFIED,
-    C_WEDGE,
+from ltdsim.coupler_models import P_D0, coupler_force
+from ltdsim.layout import (
     D_BCTRL,
     D_BFULLSUM,
     D_BPLEN,
@@ -82,45 +82,6 @@ from ltdsim.lowering import (
     MODE_FORCE,
     MODE_NOTCH,
     MODE_SPEED,
-    P_BACK,
-    P_C1,
-    P_C2,
-    P_C3,
-    P_D0,
-    P_DAMP,
-    P_F0,
-    P_G,
-    P_GAP,
-    P_H1,
-    P_H2,
-    P_H3,
-    P_K1,
-    P_K2,
-    P_K3,
-    P_KLOCK,
-    P_KM,
-    P_KR,
-    P_KSOLID,
-    P_NLOAD,
-    P_NUNL,
-    P_PRELOAD,
-    P_RATE,
-    P_S,
-    P_SLACK,
-    P_SNV,
-    P_SNX,
-    P_STAB,
-    P_STIFF,
-    P_TA,
-    P_TB,
-    P_TG,
-    P_TLOAD,
-    P_TRAVEL,
-    P_TUNL,
-    P_IVC,
-    P_XM0,
-    P_XR0,
-    P_ZOFF,
     T_AMAX,
     T_DMAX,
     T_FF,
@@ -152,16 +113,6 @@ from ltdsim.physics.brakes import (
     karwatzki,
 )
 from ltdsim.physics.control import pid_step
-from ltdsim.physics.couplers import coupler_linear, simplified_force, solid_closure
-from ltdsim.physics.draftgear import (
-    hysteresis,
-    plate_rate,
-    plates_carried,
-    plates_out,
-    s_table_lookup,
-    table_curve,
-    wedge_curves,
-)
 from ltdsim.physics.resistance import (
     curve_resistance,
     davis_force,
@@ -203,7 +154,7 @@ STEPPER = np.dtype([("h", np.float64), ("accepted", np.int64), ("rejected", np.i
 
 
 class Train(NamedTuple):
-    """The lowered train and track (columns in :mod:`ltdsim.lowering`)."""
+    """The lowered train and track (columns in :mod:`ltdsim.layout`)."""
 
     veh: np.ndarray  # (n, N_VCOL) vehicles, V_* columns
     inv_m: np.ndarray  # (n,) inverse vehicle masses, 1/kg
@@ -219,8 +170,8 @@ class Train(NamedTuple):
 class Couplers(NamedTuple):
     """The lowered couplers, coupler j joining vehicles j and j + 1."""
 
-    model: np.ndarray  # (n - 1,) int64 model codes, C_LINEAR ... C_TABLE
-    par: np.ndarray  # (n - 1, N_CCOL) parameters, P_* columns (SI)
+    model: np.ndarray  # (n - 1,) int64 model codes (ltdsim.coupler_models.MODEL_NAMES)
+    par: np.ndarray  # (n - 1, N_CCOL) parameters (columns: ltdsim.coupler_models)
 
 
 class Driver(NamedTuple):
@@ -372,107 +323,6 @@ def _interp(xs, ys, x, hints, slot):
         return ys[k]
     w = (x - xs[k]) / (xs[k + 1] - xs[k])
     return ys[k] + w * (ys[k + 1] - ys[k])
-
-
-@njit(cache=True, _nrt=False, forceinline=True)
-def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
-    """Force (N, + tension) of hysteretic gear ``j``; writes its state rates to ``dy``.
-
-    ``zo``/``dzo`` index the gear's states in ``y``/``dy``: internal force F1 (N); for a
-    wedge gear also the plate displacement p (m); with an S table also the impact speed
-    v0 (m/s).
-
-    Compiled once for the train kernels and the gear rig (:mod:`ltdsim.gear`), inlined
-    by LLVM (see the module's notes on compiling).
-    """
-    slack = cpl[j, P_SLACK]
-    h = 0.5 * slack
-    rate = cpl[j, P_RATE]
-    wedge = model == C_WEDGE
-    s_table = wedge and cpl[j, P_STAB] >= 0.0
-    f1 = y[zo]
-    p = y[zo + 1] if wedge else 0.0
-    v0 = y[zo + 2] if s_table else 0.0
-    gap = cpl[j, P_GAP]
-    delta = cpl[j, P_BACK]
-    in_slack = False
-    if d > h:
-        x = d - h
-        sgn = 1.0
-    elif d < -h:
-        x = -(d + h)
-        sgn = -1.0
-    elif slack > 0.0:
-        in_slack = True
-        x = 0.0
-        sgn = 1.0
-    else:
-        x = 0.0
-        sgn = 1.0 if dd >= 0.0 else -1.0
-    if in_slack:
-        # no force. The gear extends fully and its wedges come free, so it meets the next
-        # load on its loading curve (F1 relaxes to the released force f_l(0)); the plates
-        # go home; the impact speed follows the closing speed so that it holds its value
-        # at contact. (States within 1e-12 of rest stop there: an endless exponential
-        # decay ends in subnormal numbers, which are slow on every CPU.)
-        dy[dzo] = rate * (cpl[j, P_F0] - f1)
-        if wedge:
-            dy[dzo + 1] = plate_rate(-gap, p, 0.0, delta, rate) if p > 1e-12 else 0.0
-        if s_table:
-            dy[dzo + 2] = rate * (abs(dd) - v0)
-        return 0.0
-    v = sgn * dd  # > 0 while the gear closes
-    if wedge:
-        off = int(cpl[j, P_STAB])
-        if off >= 0:
-            s_factor = s_table_lookup(ctab, off, int(cpl[j, P_SNV]), int(cpl[j, P_SNX]), v0, x)
-        else:
-            s_factor = cpl[j, P_S]
-        u = x - gap
-        ramp = max(delta, 1e-3)  # plate friction fades in and out over this travel, m
-        engaged = plates_out(p, ramp)
-        f_l, f_u, s_l, s_u = wedge_curves(
-            x, v, cpl[j, P_TA], cpl[j, P_TB], cpl[j, P_TG], cpl[j, P_G], cpl[j, P_C1],
-            cpl[j, P_C2], cpl[j, P_C3], cpl[j, P_H1], cpl[j, P_H2], cpl[j, P_H3], s_factor,
-            cpl[j, P_KM], cpl[j, P_XM0], cpl[j, P_KR], cpl[j, P_XR0], engaged,
-            engaged if plates_carried(u, p, delta) else 0.0)
-    else:
-        f_l, s_l = table_curve(ctab, int(cpl[j, P_TLOAD]), int(cpl[j, P_NLOAD]), x)
-        f_u, s_u = table_curve(ctab, int(cpl[j, P_TUNL]), int(cpl[j, P_NUNL]), x)
-    ks = cpl[j, P_KSOLID]
-    solid = solid_closure(x, cpl[j, P_TRAVEL], ks)
-    if solid > 0.0:  # closed solid
-        f_l += solid
-        f_u += solid
-        s_l += ks
-        s_u += ks
-    if f_u > f_l:
-        f_u = f_l
-    f, df1 = hysteresis(f1, f_l, f_u, s_l, s_u, v, cpl[j, P_KLOCK], rate)
-    if f < 0.0:
-        f = 0.0
-    dy[dzo] = df1
-    if wedge:
-        dy[dzo + 1] = plate_rate(x - gap, p, v, delta, rate)
-    if s_table:
-        dy[dzo + 2] = 0.0
-    return sgn * f
-
-
-@njit(cache=True, inline="always")
-def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
-    """Force of coupler ``j`` (N, + tension) at deflection ``d`` (m) and rate ``dd``
-    (m/s). A hysteretic gear reads its states at ``y[z0 + offset]`` and writes their
-    rates to ``dy[dz0 + offset]``."""
-    if model == C_SIMPLIFIED:
-        return simplified_force(d, dd, cpl[j, P_SLACK], cpl[j, P_PRELOAD], cpl[j, P_DAMP],
-                                cpl[j, P_K1], cpl[j, P_K2], cpl[j, P_K3], cpl[j, P_IVC],
-                                cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
-    if model == C_LINEAR:
-        return coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, P_STIFF], cpl[j, P_DAMP],
-                              cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
-    zo = int(cpl[j, P_ZOFF])
-    return _gear(j, model, d, dd, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
 
 
 @njit(cache=True, inline="always")

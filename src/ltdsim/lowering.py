@@ -1,7 +1,9 @@
 """Lower a validated :class:`~ltdsim.scenario.Scenario` to the flat arrays the kernel reads.
 
 This is the only place that knows both the scenario's structure and the kernel's
-array layout; the column constants below are shared with :mod:`ltdsim.kernel`.
+array layout (:mod:`ltdsim.layout` for the vehicle, consist, traction and driver tables,
+:mod:`ltdsim.coupler_models` for the coupler table). Modules outside the engine read a
+:class:`Lowered` through its properties, never through column constants.
 """
 
 from __future__ import annotations
@@ -10,61 +12,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ltdsim.coupler_models import N_CCOL, P_D0, lower_coupler
 from ltdsim.integrators import BS23, Tableau, get_tableau
+from ltdsim.layout import (
+    D_AW, D_BCTRL, D_BFULLSUM, D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP,
+    D_BTAUA, D_BTAUR, D_BVS, D_FILT, D_MODE, K_DBFADE, K_FMAX, K_MADH, K_NLEN, K_NOFF,
+    K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH, K_Z, MODE_FORCE, MODE_NOTCH, MODE_SPEED, N_DRV,
+    N_KCOL, N_VCOL, T_REF, V_BDELAY, V_BFRIC, V_BFULL, V_BMU, V_BNTAB, V_BSHOE, V_BTAB, V_BZ,
+    V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_MASS, V_P0, V_SHARE, V_WMASS,
+)
 from ltdsim.physics.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
 from ltdsim.physics.resistance import PURE_SIGN
 from ltdsim.scenario import Scenario
 
-# vehicle table columns: mass, weight mass, Davis, share of its consist's traction,
-# initial position; consist index (0 with share 0 when unpowered); brake: state index in
-# y (-1 unbraked), full-application shoe force (N, cylinder force x rigging ratio), force
-# per shoe at full application (N), friction model, constant mu, friction table offset
-# and length, brake-pipe signal delay from the nearest control point (s)
-# (V_DIV0: inverse Davis standstill speed 1/v0, s/m; resistance.PURE_SIGN for v0 = 0)
-(V_MASS, V_WMASS, V_DA, V_DB, V_DC, V_DIV0, V_SHARE, V_P0, V_CONS, V_BZ, V_BFULL, V_BSHOE,
- V_BFRIC, V_BMU, V_BTAB, V_BNTAB, V_BDELAY) = range(17)
-N_VCOL = 17
-# locomotive consist table columns: traction curve, share of the driver's force demand,
-# lag time constant (s), force rate limit (N/s, 0 none), lag state index in y (-1 none),
-# vehicle whose speed it reads, own notch profile (offset, length in the table store;
-# length 0 = follows the driver), speed below which dynamic braking fades (m/s, 0 none)
-(K_FMAX, K_PMAX, K_MADH, K_SHARE, K_TAU, K_RATE, K_Z, K_VEH, K_NOFF, K_NLEN,
- K_DBFADE) = range(11)
-N_KCOL = 11
-# coupler models and parameter columns
-C_LINEAR, C_SIMPLIFIED, C_WEDGE, C_TABLE = 0, 1, 2, 3
-MODEL_CODES = {"linear": C_LINEAR, "simplified": C_SIMPLIFIED, "friction_wedge": C_WEDGE,
-               "table": C_TABLE}
-# (P_IVC: inverse critical velocity 1/v_c, s/m, so the kernel multiplies)
-(P_SLACK, P_PRELOAD, P_DAMP, P_STIFF, P_K1, P_K2, P_K3, P_IVC, P_D0,
- # hysteretic gears (friction_wedge, table): internal-state offset, rates, limits
- P_ZOFF, P_RATE, P_KLOCK, P_TRAVEL, P_KSOLID,
- # friction_wedge: geometry (tan a, tan b, tan g, G, speed ratios), friction, springs
- P_TA, P_TB, P_TG, P_G, P_C1, P_C2, P_C3, P_H1, P_H2, P_H3, P_S, P_STAB, P_SNV, P_SNX,
- P_KM, P_XM0, P_KR, P_XR0, P_GAP, P_BACK,
- # table: offsets and lengths of the loading and unloading curves in the table store
- P_TLOAD, P_NLOAD, P_TUNL, P_NUNL,
- # hysteretic gears: force of the released gear at zero deflection, N
- P_F0) = range(39)
-N_CCOL = 39
-#: most internal states of one hysteretic gear: internal force, plate displacement
-#: (wedge gears), impact speed (wedge gears with an S table)
-N_GEAR_STATES = 3
-# traction parameter vector
-# (T_AMAX, T_DMAX: the speed controller's output limits, T_MTOT: the mass its output
-# multiplies; see lower)
-T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF = range(9)
-# driver and brake parameter vector: PID; brake schedule and position triggers (offsets
-# and lengths in the table store); controller-made applications (0/1), their level
-# step; cylinder time constants (s), standstill speed (m/s); mean shoe force at full
-# application (N) and the train's total full shoe force (N, 0 = no brakes) for the
-# controller's blending; PID anti-windup (0/1)
-(D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT,
- D_BSOFF, D_BSLEN, D_BPOFF, D_BPLEN, D_BCTRL, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
- D_BSHOEREF, D_BFULLSUM, D_AW) = range(20)
-N_DRV = D_AW + 1
-MODE_SPEED, MODE_FORCE, MODE_NOTCH = 0, 1, 2
+# the tables' column layouts (V_*, K_*, T_*, D_*) live in ltdsim.layout, the coupler
+# table's (P_* common columns, each model's own) with the models in ltdsim.coupler_models
 #: N/m: force states enter the bs23 error norm as force / FORCE_SCALE, so ``atol`` reads
 #: as metres of gear deflection for them too (1e-6 m -> 1 N)
 FORCE_SCALE = 1.0e6
@@ -108,6 +71,22 @@ class Lowered:
         """True when some vehicle has an air brake."""
         return bool((self.veh[:, V_BZ] >= 0).any())
 
+    @property
+    def p0(self) -> np.ndarray:
+        """Initial track position of each vehicle's centre, m (lead at 0)."""
+        return self.veh[:, V_P0]
+
+    @property
+    def d0(self) -> np.ndarray:
+        """Initial deflection of each coupler, m: the offset added to ``x_j - x_(j+1)``
+        (nonzero when the train starts stretched or bunched)."""
+        return self.cpl[:, P_D0]
+
+    @property
+    def speed_vehicle(self) -> int:
+        """Index of the vehicle whose speed the driver reads (the lead consist's first)."""
+        return int(self.trac[T_REF])
+
 
 def lower(s: Scenario) -> Lowered:
     """Turn a scenario into kernel arrays."""
@@ -137,36 +116,12 @@ def lower(s: Scenario) -> Lowered:
     kinds = ["x"] * n + ["v"] * n  # what each state is, for the bs23 error weights
     nz = 0
     for i in range(nc):
-        c = s.coupler(i)
-        cpl_model[i] = MODEL_CODES[c.model]
-        row = cpl[i]
-        row[[P_SLACK, P_PRELOAD, P_DAMP, P_STIFF, P_K1, P_K2, P_K3, P_IVC, P_D0]] = [
-            c.slack, c.preload, c.damping, c.stiffness or 0.0, c.k1 or 0.0, c.k2, c.k3 or 0.0,
-            1.0 / (c.v_c or 1.0), sign0 * 0.5 * c.slack]
-        row[P_ZOFF] = -1.0
-        # gear travel beyond the slack (the table gear's default is set below); a linear or
-        # simplified coupler without one never closes solid
-        row[P_TRAVEL] = np.inf if c.travel is None else c.travel
-        row[P_KSOLID] = c.solid_stiffness
-        if c.model in ("friction_wedge", "table"):
-            row[P_ZOFF] = nz
-            row[P_RATE] = 1.0 / c.tracking_time
-            row[P_KLOCK] = c.k_locked
-            row[P_F0] = released_force(c)
-            # states: internal force (starting released, on the loading curve at 0);
-            # wedge gears: plate displacement; with an S table: impact speed
-            states = [("force", row[P_F0])]
-            if c.model == "friction_wedge":
-                states.append(("x", 0.0))
-                if c.S_table is not None:
-                    states.append(("v", 0.0))
-            nz += len(states)
-            kinds += [k for k, _ in states]
-            y0_extra += [v for _, v in states]
-        if c.model == "friction_wedge":
-            _lower_wedge(c, row, tables)
-        elif c.model == "table":
-            _lower_table(c, row, tables)
+        one = lower_coupler(s.coupler(i), tables, sign0=sign0, state_offset=nz)
+        cpl_model[i] = one.code
+        cpl[i] = one.row
+        nz += len(one.states)
+        kinds += one.states
+        y0_extra += one.y0
     ny = 2 * n + nz
 
     track_pos, track_grade, track_curv = merge_track(s.track.gradient, s.track.curve)
@@ -337,46 +292,6 @@ def _append(tables: list[float], values) -> int:
     off = len(tables)
     tables.extend(float(v) for v in values)
     return off
-
-
-def _lower_wedge(c, row, tables) -> None:
-    from ltdsim.physics.draftgear import wedge_geometry
-
-    a, b, g = (np.radians(v) for v in (c.alpha_deg, c.beta_deg, c.gamma_deg))
-    row[[P_TA, P_TB, P_TG, P_G, P_C1, P_C2, P_C3]] = wedge_geometry(a, b, g)
-    row[[P_H1, P_H2, P_H3]] = c.h1, c.h2, c.h3
-    row[[P_KM, P_XM0, P_KR, P_XR0, P_GAP, P_BACK]] = (c.k_m, c.x_m0, c.k_r, c.x_r0,
-                                                      c.plate_gap, c.plate_backlash)
-    row[P_STAB] = -1.0
-    if c.S_table is not None:
-        t = c.S_table
-        row[P_STAB] = _append(tables, [*t.velocity, *t.deflection,
-                                       *np.asarray(t.values, dtype=float).ravel()])
-        row[P_SNV], row[P_SNX] = len(t.velocity), len(t.deflection)
-    else:
-        row[P_S] = c.S
-
-
-def _lower_table(c, row, tables) -> None:
-    for pts, off_col, n_col in ((c.loading, P_TLOAD, P_NLOAD), (c.unloading, P_TUNL, P_NUNL)):
-        arr = np.asarray(pts, dtype=float)
-        row[off_col] = _append(tables, [*arr[:, 0], *arr[:, 1]])
-        row[n_col] = len(arr)
-    last = max(c.loading[-1][0], c.unloading[-1][0])
-    row[P_TRAVEL] = c.travel if c.travel is not None else last
-
-
-def released_force(c) -> float:
-    """Force of a released hysteretic gear at zero deflection on its loading curve, N
-    (the initial value of its internal force)."""
-    if c.model == "table":
-        return float(c.loading[0][1])
-    from ltdsim.physics.draftgear import wedge_gear_quasistatic
-
-    return float(wedge_gear_quasistatic(
-        0.0, 1.0, *np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]), c.h1, c.h2, c.h3,
-        c.S if c.S is not None else c.S_table.values[0][0], c.k_m, c.x_m0, c.k_r, c.x_r0,
-        c.plate_gap, c.plate_backlash, 0.0))
 
 
 def merge_track(gradient, curve) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

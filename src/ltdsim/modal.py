@@ -63,16 +63,13 @@ def coupling_stiffness(scenario: Scenario, which: str = "low", series: int = 2) 
     (N/m, every coupler). Linear couplers use their stiffness either way. ``series``
     gears per coupling act in series.
     """
+    from ltdsim.coupler_models import linearised_stiffness
+
     out = []
     for j in range(scenario.n_couplers):
         c = scenario.coupler(j)
-        if not isinstance(which, str):
-            k = float(which)
-        elif c.model == "linear":
-            k = c.stiffness
-        elif c.model == "simplified":
-            k = c.k1 if which == "low" else c.k2 + c.k3
-        else:
+        k = float(which) if not isinstance(which, str) else linearised_stiffness(c, which)
+        if k is None:
             raise ValueError(f"coupler {j} is {c.model!r}: give a stiffness in N/m to linearise it")
         out.append(k / series)
     return np.array(out)

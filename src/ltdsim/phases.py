@@ -32,7 +32,7 @@ CRITERIA = {"peak": "infnorm", "RMS": "rms"}
 
 def _scenario_of(ds: xr.Dataset, scenario: Scenario | None) -> Scenario:
     if scenario is None:
-        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
     return scenario
 
 

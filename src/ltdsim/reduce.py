@@ -27,9 +27,8 @@ from scipy.optimize import differential_evolution
 
 from ltdsim.gear import MODE_FORCE, STUDY_SINES, _lowered_gear, integrate_rig, sine_chain
 from ltdsim.identify import fit_percent
-from ltdsim.lowering import P_DAMP, P_IVC, P_K1, P_K2, P_K3
 from ltdsim.physics.couplers import coupler_simplified
-from ltdsim.scenario import CouplerParams
+from ltdsim.scenario import CouplerParams, SimplifiedCoupler
 
 #: fitted parameter names (keys of a simplified coupler) and default search bounds
 PARAMETERS = ("damping", "k1", "k2", "k3", "v_c")
@@ -94,16 +93,15 @@ class RigObjective:
         self.mass = float(mass)
         self.dt = dt
         self.method = method
-        template = CouplerParams(model="simplified", slack=slack, damping=1.0, k1=1.0, k2=1.0,
-                                 k3=1.0, v_c=1.0)
-        self.model, self.cpl, self.ctab = _lowered_gear(template, dt)
 
     def force(self, values) -> np.ndarray:
         """Gear force history (N) of the simplified coupler with ``values`` (SI)."""
-        cpl = self.cpl.copy()
-        cpl[0, [P_DAMP, P_K1, P_K2, P_K3]] = values[:4]
-        cpl[0, P_IVC] = 1.0 / values[4]  # v_c, m/s
-        return integrate_rig(self.model, cpl, self.ctab, MODE_FORCE, self.t, self.force_in,
+        # (a candidate of the search, not user input: built without validation, so that
+        # search bounds wider than the scenario's ranges still evaluate)
+        c = SimplifiedCoupler.model_construct(
+            slack=self.slack, **dict(zip(PARAMETERS, (float(v) for v in values))))
+        model, cpl, ctab = _lowered_gear(c, self.dt)
+        return integrate_rig(model, cpl, ctab, MODE_FORCE, self.t, self.force_in,
                              self.force_in, self.mass, self.t[-1] - self.t[0], self.dt,
                              self.method).force
 

@@ -385,6 +385,21 @@ def _status(f: FieldInfo | None, model: type[BaseModel]) -> str:
     return "optional"
 
 
+def _literal_key(models: list[type[BaseModel]]) -> str | None:
+    """The key that tells union members apart when the union's discriminator is a
+    function: a field every member has, typed as a ``Literal`` of one value."""
+    for name in models[0].model_fields:
+        if all(name in m.model_fields and _single_literal(m.model_fields[name].annotation)
+               for m in models):
+            return name
+    return None
+
+
+def _single_literal(tp) -> bool:
+    bare, _ = _strip_annotated(tp)
+    return typing.get_origin(bare) is typing.Literal and len(typing.get_args(bare)) == 1
+
+
 def _discriminator(f: FieldInfo | None, tp) -> str | None:
     if f is not None and isinstance(f.discriminator, str):
         return f.discriminator
@@ -431,7 +446,12 @@ def sections(root: type[BaseModel] | None = None) -> list[Section]:
             cid = f"{sid}.{name}" if sid != "top" else name
             chead = f"[[{cid}]]" if many else f"[{cid}]"
             cpath = f"{child_path}.<i>" if many else child_path
+            # (a member named with a leading underscore is internal: the coupler union's
+            # stand-in for an unknown model, which has no keys to document)
+            models = [m for m in models if not m.__name__.startswith("_")]
             d = _discriminator(f, f.annotation) if len(models) > 1 else None
+            if d is None and len(models) > 1:
+                d = _literal_key(models)
             for m in models:
                 value = m.__name__ if len(models) > 1 else None  # a plain union
                 if d is not None:

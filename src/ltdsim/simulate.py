@@ -12,7 +12,7 @@ import xarray as xr
 
 from ltdsim import kernel
 from ltdsim.errors import ScenarioError, SimulationError
-from ltdsim.lowering import MAX_EVENTS, P_D0, T_REF, V_P0, Lowered, lower
+from ltdsim.lowering import MAX_EVENTS, Lowered, lower
 from ltdsim.integrators import get_tableau
 from ltdsim.scenario import Scenario
 
@@ -300,7 +300,7 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) 
                      f"displacement = {x[i]:.6g} m, velocity = {v[i]:.6g} m/s")
     j = None
     if n > 1:
-        d = x[:-1] - x[1:] + low.cpl[:, P_D0]
+        d = x[:-1] - x[1:] + low.d0
         badc = np.flatnonzero(~np.isfinite(d))
         if badc.size:
             j = int(badc[0])
@@ -316,10 +316,10 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
     n = low.n
     n_rec = rec["x"].shape[0]
     time = np.arange(n_rec) * (low.record_every * low.dt)
-    p0 = low.veh[:, V_P0]
+    p0 = low.p0
     position = rec["x"]  # the kernel records track positions
     vel = rec["v"]
-    ref = int(low.trac[T_REF])
+    ref = low.speed_vehicle
     s = rec["s"]
     vdims = ("time", "vehicle")
     cdims = ("time", "coupler")

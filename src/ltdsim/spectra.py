@@ -114,7 +114,7 @@ def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
     from ltdsim.scenario import Scenario
 
     if scenario is None:
-        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
     try:
         low = train_modes(scenario, "low", series, lead).frequency_hz.values
         high = train_modes(scenario, "high", series, lead).frequency_hz.values
@@ -150,7 +150,7 @@ def band_share(ds, scenario=None, couplers=(0, 7, 8), f_split: float = 4.0,
     from ltdsim.scenario import Scenario
 
     if scenario is None:
-        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
     dt = float(ds.time[1] - ds.time[0])
     out = {}
     for name, a, b in phases_of(ds, scenario):
@@ -184,7 +184,7 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
     from ltdsim.scenario import Scenario
 
     if scenario is None:
-        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
     folder = Path(folder)
     dt = float(ds.time[1] - ds.time[0])
     phases = phases_of(ds, scenario)

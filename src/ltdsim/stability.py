@@ -106,45 +106,13 @@ def mode_step_limit(method: str, omega: float, zeta: float) -> float:
 
 
 # ----------------------------------------------------------------- the train's modes
-def _curve_slope(points) -> float:
-    """Steepest slope of a piecewise-linear ``[x m, F N]`` table, N/m."""
-    xs, fs = np.asarray(points, dtype=float).T
-    return float(np.max(np.abs(np.diff(fs) / np.diff(xs)))) if len(xs) > 1 else 0.0
-
-
-@functools.lru_cache(maxsize=64)
-def _wedge_slope(key: tuple) -> float:
-    """Steepest slope of a wedge gear's quasi-static loading and unloading curves (at
-    rest, where friction is largest), each stage with its plates engaged or not, N/m."""
-    from ltdsim.physics.draftgear import wedge_gear_quasistatic
-
-    (alpha, beta, gamma, h1, h2, h3, s, k_m, x_m0, k_r, x_r0, gap, back, travel) = key
-    x = np.linspace(0.0, travel, 201)
-    steepest = 0.0
-    for loading in (1.0, 0.0):
-        for plates in (0.0, 1.0):
-            f = wedge_gear_quasistatic(x, loading, *np.radians([alpha, beta, gamma]), h1,
-                                       h2, h3, s, k_m, x_m0, k_r, x_r0, gap, back, plates)
-            steepest = max(steepest, float(np.max(np.abs(np.diff(f) / np.diff(x)))))
-    return steepest
-
-
 def stiffest(c) -> float:
-    """Tangent stiffness of coupler parameters ``c`` (a ``CouplerParams``) at its
-    stiffest, N/m (see the module text)."""
-    if c.model == "linear":
-        k = c.stiffness
-    elif c.model == "simplified":
-        k = max(c.k1, c.k2 + c.k3)
-    elif c.model == "table":
-        k = c.k_locked + max(_curve_slope(c.loading), _curve_slope(c.unloading))
-    else:
-        s = c.S if c.S is not None else max(max(r) for r in c.S_table.values)
-        k = c.k_locked + _wedge_slope((c.alpha_deg, c.beta_deg, c.gamma_deg, c.h1, c.h2, c.h3,
-                                       s, c.k_m, c.x_m0, c.k_r, c.x_r0, c.plate_gap,
-                                       c.plate_backlash, c.travel))
-    closes = c.travel is not None or c.model == "table"  # a table gear closes at its end
-    return k + (c.solid_stiffness if closes else 0.0)
+    """Tangent stiffness of coupler parameters ``c`` (a validated coupler of any model)
+    at its stiffest, N/m (see the module text; each model's entry in
+    :mod:`ltdsim.coupler_models` knows its own)."""
+    from ltdsim.coupler_models import REGISTRY
+
+    return REGISTRY[c.model].stiffest(c)
 
 
 def highest_mode(masses, stiffness, damping) -> tuple[float, float]:
@@ -215,7 +183,7 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
     for j, c in enumerate(couplers):
         ks.append(stiffest(c))
         cs.append(c.damping)
-        if c.model in ("friction_wedge", "table"):
+        if getattr(c, "tracking_time", None) is not None:  # (gears with internal states)
             lags.append((f"tracking_time of coupler {j + 1}", c.tracking_time))
     if any(v.brake is not None for v in scenario.vehicles):
         b = scenario.brake

@@ -159,7 +159,7 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
     if scenario is None:
         from ltdsim.scenario import Scenario
 
-        scenario = Scenario.from_dict(json.loads(ds.attrs["scenario_json"]), "result")
+        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
     d = ds.coupler_deflection.values
     nc = d.shape[1]
     params = [scenario.coupler(j) for j in range(nc)]

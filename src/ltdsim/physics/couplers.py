@@ -13,8 +13,9 @@ separating faces together. Without slack the coupling is a continuous spring-dam
 Solid closure: a gear can travel only so far. Beyond its ``travel`` (m of gear
 deflection past the slack) it closes solid and :func:`solid_closure` adds
 ``solid_stiffness * (|e| - travel)`` in the direction of the deflection. The hysteretic
-gears (:mod:`ltdsim.physics.draftgear`, through the kernel) and the linear and simplified
-couplers use this same law; ``travel = inf`` is a gear without a stated limit.
+gears (:mod:`ltdsim.physics.draftgear`, through its ``gear_force``) and the linear and
+simplified couplers use this same law; ``travel = inf`` is a gear without a stated limit.
+A hysteretic gear first splits the coupler deflection with :func:`gear_deflection`.
 """
 
 from __future__ import annotations
@@ -151,3 +152,25 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c, travel,
     """
     return simplified_force(d, dd, slack, preload, damping, k1, k2, k3, 1.0 / v_c, travel,
                             solid_stiffness)
+
+
+@njit(cache=True, inline="always")
+def gear_deflection(d, dd, slack):
+    """Split a coupler deflection into what a gear sees: ``(x, sign, in_slack)``.
+
+    ``d`` is the coupler deflection from neutral (m, + draft), ``dd`` its rate (m/s),
+    ``slack`` the total free play (m). Outside the slack the gear deflection is the
+    magnitude ``x = |d| - slack / 2 >= 0`` (m) and ``sign`` is +1 in draft, -1 in buff.
+    Inside a slack (``in_slack``) the gear is unloaded: ``x = 0``, ``sign = +1``. A
+    coupling without slack at ``d = 0`` exactly takes the sign of the rate (the
+    direction it is about to move). Every hysteretic gear applies this, then its own
+    curves to ``x``, and returns ``sign x`` its force.
+    """
+    h = 0.5 * slack
+    if d > h:
+        return d - h, 1.0, False
+    if d < -h:
+        return -(d + h), -1.0, False
+    if slack > 0.0:
+        return 0.0, 1.0, True
+    return 0.0, 1.0 if dd >= 0.0 else -1.0, False

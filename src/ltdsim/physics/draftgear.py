@@ -33,8 +33,11 @@ The third state ``v0`` latches the closing speed at the moment of impact (while 
 coupling is in its slack it follows the closing speed; in contact it holds), the
 "initial impact velocity" of the lubrication factor ``S(v0, x)`` of Eq. 2.
 
-All functions take magnitudes: ``x = |e| >= 0`` and ``v = d|e|/dt`` (> 0 loading). The
-kernel applies the sign of draft or buff.
+All functions take magnitudes: ``x = |e| >= 0`` and ``v = d|e|/dt`` (> 0 loading); the
+sign of draft or buff comes from :func:`ltdsim.physics.couplers.gear_deflection`. What
+every hysteretic gear shares lives here beside the curves: :func:`gear_force` (solid
+closure, the band, :func:`hysteresis`) and :func:`relax` (the states' return to rest in
+the slack); ``ltdsim.coupler_models._gear`` only picks each model's curves.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ import math
 from numba import njit
 
 from ltdsim.physics._lazy import vectorize_when_used
+from ltdsim.physics.couplers import solid_closure
 from ltdsim.physics.decay import exp_neg_small
 
 
@@ -167,6 +171,42 @@ def hysteresis(f1, f_l, f_u, s_l, s_u, v, k_locked, rate):
         f = f1
         s_band = s_u + (f1 - f_u) / (f_l - f_u) * (s_l - s_u)
     return f, (k_locked + s_band) * v + rate * (f - f1)
+
+
+@njit(cache=True, inline="always")
+def relax(z, z_rest, rate):
+    """Rate (units of ``z`` per s) that pulls a gear state ``z`` towards ``z_rest`` at
+    ``rate`` (1/s): how every hysteretic gear's internal states return to rest while the
+    coupling is in its slack (the internal force to the released force, the impact
+    speed to the closing speed)."""
+    return rate * (z_rest - z)
+
+
+@njit(cache=True, inline="always")
+def gear_force(f1, f_l, f_u, s_l, s_u, v, x, travel, solid_stiffness, k_locked, rate):
+    """Force of a hysteretic gear from its curves, and the rate of its internal force.
+
+    The part every hysteretic gear shares once it has its loading and unloading curves
+    at deflection ``x`` (m, a magnitude): ``f_l``, ``f_u`` (N) and their slopes ``s_l``,
+    ``s_u`` (N/m). Beyond ``travel`` (m) the gear is solid and both curves rise by
+    :func:`~ltdsim.physics.couplers.solid_closure` (``solid_stiffness``, N/m); an
+    unloading curve never lies above the loading curve; the force is the internal force
+    ``f1`` (N) clipped to the band (:func:`hysteresis`, ``v`` = dx/dt m/s, ``k_locked``
+    N/m, ``rate`` 1/s) and never negative (a gear only pushes back). Returns
+    ``(F N, dF1/dt N/s)``.
+    """
+    solid = solid_closure(x, travel, solid_stiffness)
+    if solid > 0.0:  # closed solid
+        f_l += solid
+        f_u += solid
+        s_l += solid_stiffness
+        s_u += solid_stiffness
+    if f_u > f_l:
+        f_u = f_l
+    f, df1 = hysteresis(f1, f_l, f_u, s_l, s_u, v, k_locked, rate)
+    if f < 0.0:
+        f = 0.0
+    return f, df1
 
 
 #: contact tolerance between follower, spring seat and plates, m. The plate state tracks

@@ -1,0 +1,400 @@
+"""The coupler-model registry: one entry per coupler model, and the compiled dispatch.
+
+A coupler model is four things:
+
+1. its schema class in :mod:`ltdsim.scenario` (one member of the discriminated union on
+   ``model``; its fields are the scenario keys, each with its unit);
+2. its entry here (:class:`CouplerModel` in :data:`MODELS`): name, integer code, its own
+   columns of the coupler table, how a validated coupler lowers into them (and into the
+   table store), the kinds of its internal states, its released force (the initial
+   internal force), its linearised stiffness for modal analysis and its stiffest
+   tangent for the step-stability check; plus its branch in :func:`coupler_force`
+   (same file);
+3. its force law in :mod:`ltdsim.physics`;
+4. optionally preset data (``ltdsim/data/gears/*.toml``).
+
+Coupler table layout. Every row starts with the columns all models share
+(:data:`COMMON_COLUMNS`: slack, initial deflection, travel to solid, solid stiffness,
+offset of its internal states in ``y``, relaxation rate of those states, released
+force); each model's own columns follow at the same offset, overlapping those of the
+other models, so the table is as wide as the common part plus the largest model's own
+part. The column indices are module-level integers (numba freezes them as constants).
+Only the engine (:mod:`ltdsim.lowering`, :mod:`ltdsim.kernel`, the gear rig through
+:func:`lower_coupler`) reads this table.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from numba import njit
+
+from ltdsim.layout import layout
+from ltdsim.physics.couplers import coupler_linear, gear_deflection, simplified_force
+from ltdsim.physics.draftgear import (
+    gear_force,
+    plate_rate,
+    plates_carried,
+    plates_out,
+    relax,
+    s_table_lookup,
+    table_curve,
+    wedge_curves,
+)
+
+# ------------------------------------------------------------------ table layout
+#: columns every coupler row has: total slack m, initial deflection (offset added to
+#: x_j - x_(j+1)) m, gear travel beyond the slack to solid closure m (inf: none),
+#: stiffness of the solid gear N/m, offset of the coupler's internal states among the
+#: gear states (-1: none), their relaxation rate 1/s, force of the released gear at
+#: zero deflection N (its internal force's initial value)
+COMMON_COLUMNS = ("slack", "d0", "travel", "solid_stiffness", "state_offset", "rate",
+                  "released_force")
+(P_SLACK, P_D0, P_TRAVEL, P_KSOLID, P_ZOFF, P_RATE, P_F0) = layout(*COMMON_COLUMNS)
+N_COMMON = len(COMMON_COLUMNS)
+
+#: linear: stiffness N/m, damping N s/m
+LINEAR_COLUMNS = ("stiffness", "damping")
+(LIN_STIFF, LIN_DAMP) = layout(*LINEAR_COLUMNS, start=N_COMMON)
+
+#: simplified (paper Eq. 9): preload N, damping N s/m, k1 k2 k3 N/m, 1/v_c s/m (the
+#: kernel multiplies)
+SIMPLIFIED_COLUMNS = ("preload", "damping", "k1", "k2", "k3", "inv_v_c")
+(SIM_PRELOAD, SIM_DAMP, SIM_K1, SIM_K2, SIM_K3, SIM_IVC) = layout(*SIMPLIFIED_COLUMNS,
+                                                                   start=N_COMMON)
+
+#: columns every hysteretic gear has first among its own: locked stiffness N/m
+HYSTERETIC_COLUMNS = ("k_locked",)
+(HYS_KLOCK,) = layout(*HYSTERETIC_COLUMNS, start=N_COMMON)
+
+#: friction_wedge (paper Eq. 1-7): tan alpha, tan beta, tan gamma, G and the speed
+#: ratios c1-c3 (physics.draftgear.wedge_geometry, -); friction h1 h2 -, h3 s/m;
+#: lubrication factor S - or its table (offset in the table store, -1 none; numbers of
+#: speeds and deflections); springs k_m N/m, x_m0 m, k_r N/m, x_r0 m; plate gap m,
+#: plate backlash m
+WEDGE_COLUMNS = HYSTERETIC_COLUMNS + (
+    "tan_alpha", "tan_beta", "tan_gamma", "G", "c1", "c2", "c3", "h1", "h2", "h3", "S",
+    "S_table", "S_n_velocity", "S_n_deflection", "k_m", "x_m0", "k_r", "x_r0",
+    "plate_gap", "plate_backlash")
+(_, W_TA, W_TB, W_TG, W_G, W_C1, W_C2, W_C3, W_H1, W_H2, W_H3, W_S, W_STAB, W_SNV, W_SNX,
+ W_KM, W_XM0, W_KR, W_XR0, W_GAP, W_BACK) = layout(*WEDGE_COLUMNS, start=N_COMMON)
+
+#: table: offsets and lengths of the loading and unloading curves in the table store
+TABLE_COLUMNS = HYSTERETIC_COLUMNS + ("loading", "loading_len", "unloading",
+                                      "unloading_len")
+(_, TAB_LOAD, TAB_NLOAD, TAB_UNL, TAB_NUNL) = layout(*TABLE_COLUMNS, start=N_COMMON)
+
+#: model codes (the kernel's ``model`` array); the order of :data:`MODELS`
+MODEL_NAMES = ("linear", "simplified", "friction_wedge", "table")
+(M_LINEAR, M_SIMPLIFIED, M_WEDGE, M_TABLE) = layout(*MODEL_NAMES)
+
+
+# ------------------------------------------------------------------ compiled dispatch
+@njit(cache=True, _nrt=False, forceinline=True)
+def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
+    """Force (N, + tension) of hysteretic gear ``j``; writes its state rates to ``dy``.
+
+    ``zo``/``dzo`` index the gear's states in ``y``/``dy``: internal force F1 (N); for a
+    wedge gear also the plate displacement p (m); with an S table also the impact speed
+    v0 (m/s). What all hysteretic gears share (slack and sign, relaxation in the slack,
+    solid closure, the hysteresis band) comes from :mod:`ltdsim.physics`; this function
+    only picks each model's curves and its extra states.
+
+    Compiled once for the train kernels and the gear rig (:mod:`ltdsim.gear`), inlined
+    by LLVM (see :mod:`ltdsim.kernel`'s notes on compiling).
+    """
+    x, sgn, in_slack = gear_deflection(d, dd, cpl[j, P_SLACK])
+    rate = cpl[j, P_RATE]
+    f1 = y[zo]
+    wedge = model == M_WEDGE
+    s_table = wedge and cpl[j, W_STAB] >= 0.0
+    if in_slack:
+        # no force. The gear extends fully and its wedges come free, so it meets the next
+        # load on its loading curve (F1 relaxes to the released force f_l(0)); the plates
+        # go home; the impact speed follows the closing speed so that it holds its value
+        # at contact. (States within 1e-12 of rest stop there: an endless exponential
+        # decay ends in subnormal numbers, which are slow on every CPU.)
+        dy[dzo] = relax(f1, cpl[j, P_F0], rate)
+        if wedge:
+            p = y[zo + 1]
+            dy[dzo + 1] = plate_rate(-cpl[j, W_GAP], p, 0.0, cpl[j, W_BACK], rate) \
+                if p > 1e-12 else 0.0
+        if s_table:
+            dy[dzo + 2] = relax(y[zo + 2], abs(dd), rate)
+        return 0.0
+    v = sgn * dd  # > 0 while the gear closes
+    if wedge:
+        p = y[zo + 1]
+        gap = cpl[j, W_GAP]
+        delta = cpl[j, W_BACK]
+        off = int(cpl[j, W_STAB])
+        if off >= 0:
+            s_factor = s_table_lookup(ctab, off, int(cpl[j, W_SNV]), int(cpl[j, W_SNX]),
+                                      y[zo + 2], x)
+        else:
+            s_factor = cpl[j, W_S]
+        u = x - gap
+        ramp = max(delta, 1e-3)  # plate friction fades in and out over this travel, m
+        engaged = plates_out(p, ramp)
+        f_l, f_u, s_l, s_u = wedge_curves(
+            x, v, cpl[j, W_TA], cpl[j, W_TB], cpl[j, W_TG], cpl[j, W_G], cpl[j, W_C1],
+            cpl[j, W_C2], cpl[j, W_C3], cpl[j, W_H1], cpl[j, W_H2], cpl[j, W_H3], s_factor,
+            cpl[j, W_KM], cpl[j, W_XM0], cpl[j, W_KR], cpl[j, W_XR0], engaged,
+            engaged if plates_carried(u, p, delta) else 0.0)
+    elif model == M_TABLE:
+        f_l, s_l = table_curve(ctab, int(cpl[j, TAB_LOAD]), int(cpl[j, TAB_NLOAD]), x)
+        f_u, s_u = table_curve(ctab, int(cpl[j, TAB_UNL]), int(cpl[j, TAB_NUNL]), x)
+    else:  # (no other hysteretic model: lowering gives only known codes)
+        f_l = f_u = s_l = s_u = 0.0
+    f, df1 = gear_force(f1, f_l, f_u, s_l, s_u, v, x, cpl[j, P_TRAVEL], cpl[j, P_KSOLID],
+                        cpl[j, HYS_KLOCK], rate)
+    dy[dzo] = df1
+    if wedge:
+        dy[dzo + 1] = plate_rate(x - cpl[j, W_GAP], y[zo + 1], v, cpl[j, W_BACK], rate)
+    if s_table:
+        dy[dzo + 2] = 0.0
+    return sgn * f
+
+
+@njit(cache=True, inline="always")
+def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
+    """Force of coupler ``j`` (N, + tension) at deflection ``d`` (m) and rate ``dd``
+    (m/s), by its model code ``model``. A gear with internal states reads them at
+    ``y[z0 + offset]`` and writes their rates to ``dy[dz0 + offset]`` (``offset`` its
+    ``P_ZOFF`` column). One branch per model of :data:`MODELS`."""
+    if model == M_SIMPLIFIED:
+        return simplified_force(d, dd, cpl[j, P_SLACK], cpl[j, SIM_PRELOAD],
+                                cpl[j, SIM_DAMP], cpl[j, SIM_K1], cpl[j, SIM_K2],
+                                cpl[j, SIM_K3], cpl[j, SIM_IVC], cpl[j, P_TRAVEL],
+                                cpl[j, P_KSOLID])
+    if model == M_LINEAR:
+        return coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, LIN_STIFF], cpl[j, LIN_DAMP],
+                              cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
+    zo = int(cpl[j, P_ZOFF])
+    return _gear(j, model, d, dd, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
+
+
+# ------------------------------------------------------------------ registry
+def _append(tables: list[float], values) -> int:
+    """Append values to the flat table store and return their offset."""
+    off = len(tables)
+    tables.extend(float(v) for v in values)
+    return off
+
+
+@dataclass(frozen=True)
+class CouplerModel:
+    """One coupler model's entry in the registry (see the module text).
+
+    ``lower(c, tables)`` returns the values of the model's own columns by name (and of
+    common columns it sets itself, such as a table gear's travel), appending curves to
+    the flat table store ``tables``; ``states(c)`` the kinds of its internal states
+    ("force" N, "x" m, "v" m/s: they set the bs23 error weights); ``released(c)`` its
+    initial internal force N; ``stiffness(c, which)`` its linearised stiffness N/m for
+    modal analysis (``which`` "low" or "high"), None when it has none; ``stiffest(c)``
+    its tangent stiffness at its stiffest N/m, solid closure included (the fixed-step
+    stability check, :mod:`ltdsim.stability`).
+    """
+
+    name: str
+    columns: tuple[str, ...]
+    lower: Callable[[object, list], dict]
+    stiffest: Callable[[object], float]
+    states: Callable[[object], tuple[str, ...]] = lambda c: ()
+    released: Callable[[object], float] = lambda c: 0.0
+    stiffness: Callable[[object, str], float | None] = lambda c, which: None
+    #: the most internal states any coupler of this model has
+    max_states: int = 0
+
+    @property
+    def code(self) -> int:
+        """The model's integer code in the kernel's ``model`` array."""
+        return MODEL_NAMES.index(self.name)
+
+    def column(self, name: str) -> int:
+        """Index of column ``name`` (a common column or one of the model's own)."""
+        if name in COMMON_COLUMNS:
+            return COMMON_COLUMNS.index(name)
+        return N_COMMON + self.columns.index(name)
+
+
+def _lower_linear(c, tables) -> dict:
+    return {"stiffness": c.stiffness, "damping": c.damping}
+
+
+def _lower_simplified(c, tables) -> dict:
+    return {"preload": c.preload, "damping": c.damping, "k1": c.k1, "k2": c.k2, "k3": c.k3,
+            "inv_v_c": 1.0 / c.v_c}
+
+
+def _lower_wedge(c, tables) -> dict:
+    from ltdsim.physics.draftgear import wedge_geometry
+
+    a, b, g = (np.radians(v) for v in (c.alpha_deg, c.beta_deg, c.gamma_deg))
+    geometry = wedge_geometry(a, b, g)
+    out = dict(zip(("tan_alpha", "tan_beta", "tan_gamma", "G", "c1", "c2", "c3"), geometry))
+    out.update(k_locked=c.k_locked, h1=c.h1, h2=c.h2, h3=c.h3, k_m=c.k_m, x_m0=c.x_m0,
+               k_r=c.k_r, x_r0=c.x_r0, plate_gap=c.plate_gap,
+               plate_backlash=c.plate_backlash, S_table=-1.0)
+    if c.S_table is not None:
+        t = c.S_table
+        out["S_table"] = _append(tables, [*t.velocity, *t.deflection,
+                                          *np.asarray(t.values, dtype=float).ravel()])
+        out["S_n_velocity"], out["S_n_deflection"] = len(t.velocity), len(t.deflection)
+    else:
+        out["S"] = c.S
+    return out
+
+
+def _lower_table(c, tables) -> dict:
+    out = {"k_locked": c.k_locked}
+    for pts, name in ((c.loading, "loading"), (c.unloading, "unloading")):
+        arr = np.asarray(pts, dtype=float)
+        out[name] = _append(tables, [*arr[:, 0], *arr[:, 1]])
+        out[name + "_len"] = len(arr)
+    # a table gear closes solid at its last point unless told otherwise
+    last = max(c.loading[-1][0], c.unloading[-1][0])
+    out["travel"] = c.travel if c.travel is not None else last
+    return out
+
+
+def _solid(c) -> float:
+    """The solid gear's stiffness where the coupler closes solid (it has a travel), N/m."""
+    return c.solid_stiffness if c.travel is not None else 0.0
+
+
+def _curve_slope(points) -> float:
+    """Steepest slope of a piecewise-linear ``[x m, F N]`` table, N/m."""
+    xs, fs = np.asarray(points, dtype=float).T
+    return float(np.max(np.abs(np.diff(fs) / np.diff(xs)))) if len(xs) > 1 else 0.0
+
+
+@functools.lru_cache(maxsize=64)
+def _wedge_slope(key: tuple) -> float:
+    """Steepest slope of a wedge gear's quasi-static loading and unloading curves (at
+    rest, where friction is largest), each stage with its plates engaged or not, N/m."""
+    from ltdsim.physics.draftgear import wedge_gear_quasistatic
+
+    (alpha, beta, gamma, h1, h2, h3, s, k_m, x_m0, k_r, x_r0, gap, back, travel) = key
+    x = np.linspace(0.0, travel, 201)
+    steepest = 0.0
+    for loading in (1.0, 0.0):
+        for plates in (0.0, 1.0):
+            f = wedge_gear_quasistatic(x, loading, *np.radians([alpha, beta, gamma]), h1,
+                                       h2, h3, s, k_m, x_m0, k_r, x_r0, gap, back, plates)
+            steepest = max(steepest, float(np.max(np.abs(np.diff(f) / np.diff(x)))))
+    return steepest
+
+
+def _wedge_stiffest(c) -> float:
+    s = c.S if c.S is not None else max(max(r) for r in c.S_table.values)
+    return c.k_locked + _wedge_slope((c.alpha_deg, c.beta_deg, c.gamma_deg, c.h1, c.h2, c.h3,
+                                      s, c.k_m, c.x_m0, c.k_r, c.x_r0, c.plate_gap,
+                                      c.plate_backlash, c.travel)) + _solid(c)
+
+
+def _wedge_states(c) -> tuple[str, ...]:
+    # internal force; plate displacement; with an S table the impact speed
+    return ("force", "x") + (("v",) if c.S_table is not None else ())
+
+
+def _wedge_released(c) -> float:
+    from ltdsim.physics.draftgear import wedge_gear_quasistatic
+
+    return float(wedge_gear_quasistatic(
+        0.0, 1.0, *np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]), c.h1, c.h2, c.h3,
+        c.S if c.S is not None else c.S_table.values[0][0], c.k_m, c.x_m0, c.k_r, c.x_r0,
+        c.plate_gap, c.plate_backlash, 0.0))
+
+
+#: the registry, in code order (:data:`MODEL_NAMES`)
+MODELS: tuple[CouplerModel, ...] = (
+    CouplerModel("linear", LINEAR_COLUMNS, _lower_linear,
+                 stiffest=lambda c: c.stiffness + _solid(c),
+                 stiffness=lambda c, which: c.stiffness),
+    CouplerModel("simplified", SIMPLIFIED_COLUMNS, _lower_simplified,
+                 stiffest=lambda c: max(c.k1, c.k2 + c.k3) + _solid(c),
+                 stiffness=lambda c, which: c.k1 if which == "low" else c.k2 + c.k3),
+    CouplerModel("friction_wedge", WEDGE_COLUMNS, _lower_wedge, _wedge_stiffest,
+                 states=_wedge_states, released=_wedge_released, max_states=3),
+    # (a table gear closes solid at its last point when it states no travel)
+    CouplerModel("table", TABLE_COLUMNS, _lower_table,
+                 lambda c: c.k_locked + max(_curve_slope(c.loading),
+                                            _curve_slope(c.unloading)) + c.solid_stiffness,
+                 states=lambda c: ("force",), released=lambda c: float(c.loading[0][1]),
+                 max_states=1),
+)
+REGISTRY: dict[str, CouplerModel] = {m.name: m for m in MODELS}
+assert tuple(REGISTRY) == MODEL_NAMES, "MODELS must follow MODEL_NAMES (their codes)"
+#: width of the coupler table: the common columns and the widest model's own
+N_CCOL = N_COMMON + max(len(m.columns) for m in MODELS)
+#: most internal states of one coupler
+N_GEAR_STATES = max(m.max_states for m in MODELS)
+
+
+@dataclass(frozen=True)
+class LoweredCoupler:
+    """One coupler as the kernel reads it (:func:`lower_coupler`)."""
+
+    code: int  #: model code
+    row: np.ndarray  #: (N_CCOL,) its row of the coupler table
+    states: tuple[str, ...]  #: kinds of its internal states ("force", "x", "v")
+    y0: tuple[float, ...]  #: their initial values (N, m, m/s)
+
+
+def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
+                  state_offset: int = 0) -> LoweredCoupler:
+    """Lower one validated coupler ``c`` (a member of ``ltdsim.scenario.Coupler``).
+
+    Appends its curves to the flat table store ``tables``. ``sign0`` is the initial state
+    of the coupling (0 neutral, +1 stretched, -1 bunched: it starts at the end of its slack);
+    ``state_offset`` where its internal states start among the gear states.
+    """
+    entry = REGISTRY[c.model]
+    row = np.zeros(N_CCOL)
+    row[P_SLACK] = c.slack
+    row[P_D0] = sign0 * 0.5 * c.slack
+    row[P_ZOFF] = -1.0
+    # gear travel beyond the slack (a model may set its own default); a coupler without
+    # one never closes solid
+    row[P_TRAVEL] = np.inf if c.travel is None else c.travel
+    row[P_KSOLID] = c.solid_stiffness
+    states = entry.states(c)
+    y0: tuple[float, ...] = ()
+    if states:
+        row[P_ZOFF] = state_offset
+        row[P_RATE] = 1.0 / c.tracking_time
+        row[P_F0] = entry.released(c)
+        # the internal force starts released, on the loading curve at 0; the others at 0
+        y0 = (row[P_F0],) + (0.0,) * (len(states) - 1)
+    for name, value in entry.lower(c, tables).items():
+        row[entry.column(name)] = value
+    return LoweredCoupler(entry.code, row, states, y0)
+
+
+def released_force(c) -> float:
+    """Force of a released gear ``c`` at zero deflection on its loading curve, N (the
+    initial value of its internal force; 0 for a model without one)."""
+    return REGISTRY[c.model].released(c)
+
+
+def linearised_stiffness(c, which: str = "low") -> float | None:
+    """Linearised stiffness of coupler ``c`` for modal analysis, N/m: "low" (a simplified
+    coupler's recoil k1) or "high" (k2 + k3); a linear coupler's stiffness either way;
+    None for a model without one (give a number instead)."""
+    return REGISTRY[c.model].stiffness(c, which)
+
+
+def _check_registry() -> None:
+    for m in MODELS:
+        if m.columns[:len(HYSTERETIC_COLUMNS)] != HYSTERETIC_COLUMNS and m.max_states:
+            raise AssertionError(f"hysteretic model {m.name} must start with "
+                                 f"{HYSTERETIC_COLUMNS}")
+        if set(m.columns) & set(COMMON_COLUMNS):
+            raise AssertionError(f"{m.name}: own columns repeat common ones")
+
+
+_check_registry()

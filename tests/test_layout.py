@@ -1,0 +1,267 @@
+"""Every vehicle, traction, driver and brake key lands in its named column.
+
+The check walks the schema classes' fields: each key gets a value of its own, the
+scenario is lowered, and the value is looked up in the column :mod:`ltdsim.layout`
+names for it (or the documented formula of a derived column). A key the test does not
+place, and that is not listed as used elsewhere, fails the test, so a new key cannot
+be forgotten in the lowering silently.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ltdsim import layout as L
+from ltdsim.lowering import lower
+from ltdsim.physics.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
+from ltdsim.physics.control import METHODS
+from ltdsim.scenario import PID, Brake, Davis, Traction, Vehicle, VehicleBrake
+
+from conftest import build
+
+#: keys that are not columns of these tables, and where they go instead
+ELSEWHERE = {
+    Vehicle: {"name": "labels only", "count": "expanded at validation",
+              "brake": "its own keys, below", "davis": "its own keys, below"},
+    Traction: {},
+    PID: {"acceleration_of": "the demand mass, checked below"},
+    Brake: {"mode": "the signal delay, checked below"},
+    VehicleBrake: {"friction_table": "the table store, checked below"},
+    Davis: {},
+}
+
+VEHICLES = [
+    {"name": "loco", "mass": 1.31e5, "static_mass": 1.27e5, "length": 22.1, "powered": True,
+     "davis": {"a": 1101.0, "b": 31.1, "c": 6.1, "v0": 0.011},
+     "brake": {"cylinder_force": 40011.0, "rigging_ratio": 7.3, "shoes": 12,
+               "friction": 0.31}},
+    {"name": "wagon", "mass": 9.07e4, "length": 15.3,
+     "davis": {"a": 902.0, "b": 12.2, "c": 3.3, "v0": 0.0},
+     "brake": {"cylinder_force": 30013.0, "rigging_ratio": 6.1, "shoes": 8,
+               "friction_table": [[0.0, 0.41], [20.0, 0.23]]}},
+    {"name": "wagon2", "mass": 7.05e4, "static_mass": 6.9e4, "length": 13.7,
+     "davis": {"a": 703.0, "b": 9.4, "c": 2.7, "v0": 0.021},
+     "brake": {"cylinder_force": 20017.0, "rigging_ratio": 5.2, "shoes": 4}},
+]
+TRACTION = {"max_force": 4.01e5, "max_power": 6.02e6, "adhesion_mass": 3.03e5,
+            "max_accel": 0.71, "max_decel": 0.83, "feedforward": True, "time_constant": 1.9,
+            "jerk_limit": 0.37, "dynamic_brake_fade": 2.2}
+PIDKEYS = {"kp": 1.3, "ki": 0.07, "kd": 0.011, "n": 93.0, "ts": 2e-3,
+           "integrator": "backward_euler", "filter": "forward_euler", "anti_windup": True,
+           "acceleration_of": "locomotive"}
+BRAKE = {"mode": "pneumatic", "propagation_speed": 231.0, "apply_time_constant": 2.7,
+         "release_time_constant": 11.3, "standstill_speed": 0.023, "level_step": 0.15}
+
+
+def scenario():
+    return build({
+        "solver": {"dt": 1e-3, "t_end": 1.0, "output_interval": 1e-3,
+                   "stability_check": False},
+        "vehicles": VEHICLES,
+        "couplers": {"default": {"model": "linear", "stiffness": 5e6}},
+        "traction": TRACTION,
+        "brake": BRAKE,
+        "driver": {"mode": "speed", "speed_profile": [[0.0, 0.0], [10.0, 5.0]],
+                   "pid": PIDKEYS, "brake_controller": True},
+    })
+
+
+def col(names, key):
+    return names.index(key)
+
+
+def test_every_vehicle_traction_driver_and_brake_key_lands_in_its_named_column():
+    sc = scenario()
+    low = lower(sc)
+    veh, cons, trac, drv, tables = low.veh, low.cons, low.trac, low.drv, low.ctab
+    V, K, T, D = L.VEHICLE_COLUMNS, L.CONSIST_COLUMNS, L.TRACTION_SLOTS, L.DRIVER_SLOTS
+    placed = {cls: set(skip) for cls, skip in ELSEWHERE.items()}
+    m = np.array([v["mass"] for v in VEHICLES])
+
+    # vehicles
+    for i, v in enumerate(VEHICLES):
+        row = veh[i]
+        assert row[col(V, "mass")] == v["mass"]
+        assert row[col(V, "weight_mass")] == v.get("static_mass", v["mass"])
+        for k in ("a", "b", "c"):
+            assert row[col(V, "davis_" + k)] == v["davis"][k]
+        v0 = v["davis"]["v0"]
+        assert row[col(V, "inv_v0")] == (1.0 / v0 if v0 > 0 else 1e12)
+        assert row[col(V, "share")] == (1.0 if v.get("powered") else 0.0)
+        b = v["brake"]
+        full = b["cylinder_force"] * b["rigging_ratio"]
+        assert row[col(V, "brake_full")] == pytest.approx(full, rel=1e-15)
+        assert row[col(V, "brake_shoe")] == pytest.approx(full / b["shoes"], rel=1e-15)
+        if "friction_table" in b:
+            tab = np.asarray(b["friction_table"])
+            assert row[col(V, "brake_friction")] == FRICTION_TABLE
+            n = int(row[col(V, "brake_table_len")])
+            off = int(row[col(V, "brake_table")])
+            np.testing.assert_array_equal(tables[off:off + 2 * n], [*tab[:, 0], *tab[:, 1]])
+        elif "friction" in b:
+            assert row[col(V, "brake_friction")] == FRICTION_CONSTANT
+            assert row[col(V, "brake_mu")] == b["friction"]
+        else:
+            assert row[col(V, "brake_friction")] == FRICTION_KARWATZKI
+    # length: centres at half-length spacings behind the lead
+    lengths = np.array([v["length"] for v in VEHICLES])
+    np.testing.assert_allclose(-np.diff(veh[:, col(V, "p0")]),
+                               0.5 * (lengths[:-1] + lengths[1:]), rtol=1e-15)
+    # brake-pipe signal: from the lead at propagation_speed (pneumatic mode)
+    np.testing.assert_allclose(veh[:, col(V, "brake_delay")],
+                               -veh[:, col(V, "p0")] / BRAKE["propagation_speed"], rtol=1e-15)
+    placed[Vehicle] |= {"mass", "static_mass", "length", "powered"}
+    placed[Davis] |= {"a", "b", "c", "v0"}
+    placed[VehicleBrake] |= {"cylinder_force", "rigging_ratio", "shoes", "friction"}
+    placed[Brake] |= {"propagation_speed"}
+
+    # traction: the one consist and the traction slots
+    for key in ("max_force", "max_power", "adhesion_mass", "time_constant",
+                "dynamic_brake_fade"):
+        assert cons[0, col(K, key)] == TRACTION[key]
+    for key in ("max_force", "max_power", "adhesion_mass"):
+        assert trac[col(T, key)] == TRACTION[key]
+    assert cons[0, col(K, "rate_limit")] == pytest.approx(TRACTION["jerk_limit"] * m.sum(),
+                                                          rel=1e-15)
+    # the PID demands the locomotive's acceleration: its output multiplies the lead's
+    # mass, and the acceleration limits scale with the train's mass over it
+    ratio = m.sum() / m[0]
+    assert trac[col(T, "demand_mass")] == m[0]
+    assert trac[col(T, "max_accel")] == pytest.approx(TRACTION["max_accel"] * ratio, rel=1e-15)
+    assert trac[col(T, "max_decel")] == pytest.approx(TRACTION["max_decel"] * ratio, rel=1e-15)
+    assert trac[col(T, "feedforward")] == 1.0
+    placed[Traction] |= set(TRACTION)
+    placed[PID] |= {"acceleration_of"}
+
+    # driver: the speed profile, PID and brake control (speed_profile, pid and
+    # brake_controller of Driver: placed in the other test's list)
+    np.testing.assert_array_equal(low.prof_t, [0.0, 10.0])
+    np.testing.assert_array_equal(low.prof_y, [0.0, 5.0])
+    assert drv[col(D, "mode")] == L.DRIVER_MODES.index("speed")
+    for key in ("kp", "ki", "kd", "n", "ts"):
+        assert drv[col(D, key)] == PIDKEYS[key]
+    for key in ("integrator", "filter"):
+        assert drv[col(D, key)] == METHODS[PIDKEYS[key]]
+    assert drv[col(D, "anti_windup")] == 1.0
+    assert drv[col(D, "brake_controller")] == 1.0
+    for key, slot in (("level_step", "brake_step"), ("apply_time_constant", "apply_tau"),
+                      ("release_time_constant", "release_tau"),
+                      ("standstill_speed", "standstill_speed")):
+        assert drv[col(D, slot)] == BRAKE[key]
+    shoes = [v["brake"]["cylinder_force"] * v["brake"]["rigging_ratio"] / v["brake"]["shoes"]
+             for v in VEHICLES]
+    assert drv[col(D, "shoe_force_ref")] == pytest.approx(np.mean(shoes), rel=1e-15)
+    assert drv[col(D, "full_shoe_sum")] == pytest.approx(
+        sum(v["brake"]["cylinder_force"] * v["brake"]["rigging_ratio"] for v in VEHICLES),
+        rel=1e-15)
+    placed[PID] |= {"kp", "ki", "kd", "n", "ts", "integrator", "filter", "anti_windup"}
+    placed[Brake] |= {"level_step", "apply_time_constant", "release_time_constant",
+                      "standstill_speed"}
+
+    missing = {cls.__name__: sorted(set(cls.model_fields) - keys)
+               for cls, keys in placed.items() if set(cls.model_fields) - keys}
+    assert not missing, f"schema keys this test does not place: {missing}"
+
+
+def test_table_widths_follow_their_column_names():
+    for names, width in ((L.VEHICLE_COLUMNS, L.N_VCOL), (L.CONSIST_COLUMNS, L.N_KCOL),
+                         (L.TRACTION_SLOTS, L.N_TRAC), (L.DRIVER_SLOTS, L.N_DRV)):
+        assert width == len(names) == len(set(names))
+    low = lower(scenario())
+    assert low.veh.shape[1] == L.N_VCOL and low.cons.shape[1] == L.N_KCOL
+    assert low.trac.shape == (L.N_TRAC,) and low.drv.shape == (L.N_DRV,)
+
+
+def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
+    from ltdsim.scenario import Driver, Initial, Locomotive, Solver, Track
+
+    masses = [1.2e5, 1.1e5, 8e4, 1.15e5, 7e4]
+    vehicles = [{"name": f"v{i}", "mass": m, "length": 20.0 + i, "powered": i in (0, 3),
+                 "brake": {"cylinder_force": 3e4, "rigging_ratio": 6.0}}
+                for i, m in enumerate(masses)]
+    locos = [{"name": "lead", "vehicles": [0], "max_force": 3.1e5, "time_constant": 1.3,
+              "jerk_limit": 0.21},
+             {"name": "mid", "vehicles": [3], "max_power": 4.4e6, "adhesion_mass": 1.7e5,
+              "time_constant": 0.0, "jerk_limit": 0.0,
+              "notch_profile": [[0.0, 2.0], [5.0, -3.0]],
+              "brake_control": True}]
+    track = {"gradient": [[0.0, 0.0], [130.0, 0.004]], "curve": [[0.0, 0.0], [70.0, 450.0]],
+             "curve_h": 610.0, "gravity": 9.79}
+    solver = {"method": "bs23", "dt": 2e-4, "t_end": 3.0, "output_interval": 2e-3,
+              "rtol": 3e-6, "atol": 2e-7, "max_step": 0.03}
+    initial = {"velocities": [1.1, 1.2, 1.3, 1.4, 1.5], "couplers": "bunched"}
+    driver = {"mode": "notch", "notch_profile": [[0.0, 3.0], [2.0, 5.0]],
+              "brake_profile": [[1.0, 0.5]], "brake_positions": [[40.0, 0.7]]}
+    sc = build({"solver": solver, "vehicles": vehicles, "locomotives": locos,
+                "couplers": {"default": {"model": "linear", "stiffness": 5e6, "slack": 0.02}},
+                "traction": {"max_force": 4e5, "max_power": 5e6, "adhesion_mass": 2e5,
+                             "time_constant": 0.9, "jerk_limit": 0.5},
+                "track": track, "driver": driver, "initial": initial})
+    low = lower(sc)
+    K, V, T, D = L.CONSIST_COLUMNS, L.VEHICLE_COLUMNS, L.TRACTION_SLOTS, L.DRIVER_SLOTS
+    cons, tables = low.cons, low.ctab
+    # locomotives: own keys, the rest from [traction]
+    assert cons[0, col(K, "max_force")] == 3.1e5 and cons[1, col(K, "max_force")] == 4e5
+    assert cons[0, col(K, "max_power")] == 5e6 and cons[1, col(K, "max_power")] == 4.4e6
+    assert cons[0, col(K, "adhesion_mass")] == 2e5
+    assert cons[1, col(K, "adhesion_mass")] == 1.7e5
+    assert cons[0, col(K, "time_constant")] == 1.3 and cons[1, col(K, "time_constant")] == 0.0
+    assert cons[0, col(K, "lag_state")] >= 0 and cons[1, col(K, "lag_state")] == -1
+    share = 3.1e5 / (3.1e5 + 4e5)  # of the force sum: the jerk limit's share
+    assert cons[0, col(K, "rate_limit")] == pytest.approx(0.21 * sum(masses) * share,
+                                                          rel=1e-14)
+    assert [cons[k, col(K, "speed_vehicle")] for k in (0, 1)] == [0, 3]
+    assert low.veh[3, col(V, "consist")] == 1 and low.veh[3, col(V, "share")] == 1.0
+    n, off = int(cons[1, col(K, "notch_len")]), int(cons[1, col(K, "notch_offset")])
+    np.testing.assert_array_equal(tables[off:off + 2 * n], [0.0, 5.0, 2.0, -3.0])
+    assert cons[0, col(K, "notch_len")] == 0  # the lead follows the driver
+    # brake_control: the mid locomotive is a control point; the signal reaches vehicle 4
+    # from it, not from the lead
+    p0 = low.p0
+    assert low.veh[4, col(V, "brake_delay")] == pytest.approx((p0[3] - p0[4]) / 250.0,
+                                                              rel=1e-14)
+    # track: grade and curvature on merged breakpoints; curve constant; gravity
+    np.testing.assert_array_equal(low.track_pos, [0.0, 70.0, 130.0])
+    np.testing.assert_array_equal(low.track_grade, [0.0, 0.0, 0.004])
+    np.testing.assert_array_equal(low.track_curv, [0.0, 1 / 450.0, 1 / 450.0])
+    assert low.curve_h == 610.0 and low.trac[col(T, "gravity")] == 9.79
+    # solver
+    assert low.adaptive and low.dt == 2e-4 and low.max_step == 0.03
+    assert low.record_every == 10 and low.n_steps == 15000  # 3 s / 2e-4 s
+    nv = len(masses)
+    assert (low.rtol[:nv] == 0.0).all() and (low.rtol[nv:] == 3e-6).all()
+    assert (low.atol[:2 * nv] == 2e-7).all()
+    assert low.atol[low.cons[0, col(K, "lag_state")].astype(int)] == pytest.approx(2e-7 * 1e6)
+    # driver: notch mode and its profile; brake schedule and position triggers
+    assert low.drv[col(D, "mode")] == L.DRIVER_MODES.index("notch")
+    np.testing.assert_array_equal(low.prof_t, [0.0, 2.0])
+    np.testing.assert_array_equal(low.prof_y, [3.0, 5.0])
+    for key, pts in (("brake_schedule", [1.0, 0.5]), ("brake_positions", [40.0, 0.7])):
+        off, n = int(low.drv[col(D, key)]), int(low.drv[col(D, key + "_len")])
+        assert n == 1
+        np.testing.assert_array_equal(tables[off:off + 2], pts)
+    # initial: speeds per vehicle, couplers at the buff end of their slack
+    np.testing.assert_array_equal(low.y0[nv:2 * nv], initial["velocities"])
+    np.testing.assert_array_equal(low.d0, -0.01)
+    # initial speed of the whole train; a force profile
+    other = sc.with_overrides({"initial.velocities": None, "initial.speed": 2.5,
+                               "driver.mode": "force",
+                               "driver.force_profile": [[0.0, 1e5], [1.0, -2e4]],
+                               "driver.brake_profile": None, "driver.brake_positions": None})
+    low2 = lower(other)
+    np.testing.assert_array_equal(low2.y0[nv:2 * nv], 2.5)
+    assert low2.drv[col(D, "mode")] == L.DRIVER_MODES.index("force")
+    np.testing.assert_array_equal(low2.prof_t, [0.0, 1.0])
+    np.testing.assert_array_equal(low2.prof_y, [1e5, -2e4])
+    placed = {
+        Driver: {"mode", "notch_profile", "brake_profile", "brake_positions",
+                 "force_profile", "speed_profile", "pid", "brake_controller"},
+        Locomotive: {"name", "vehicles", "max_force", "max_power", "adhesion_mass",
+                     "time_constant", "jerk_limit", "notch_profile", "brake_control"},
+        Track: set(track),
+        Solver: set(solver) | {"stability_check"},  # (a check at validation)
+        Initial: {"speed", "velocities", "couplers"},
+    }
+    for cls, keys in placed.items():
+        assert set(cls.model_fields) <= keys, (cls.__name__, set(cls.model_fields) - keys)
