@@ -38,6 +38,14 @@ def _options(spec: dict, defs: dict) -> list[dict]:
     return [_resolve(o, defs) for o in opts if o.get("type") != "null"]
 
 
+def _constant_key(members: list[dict]) -> str | None:
+    """The property that at least two members of a union fix to a constant, if any."""
+    for name in {n for m in members for n in m["properties"]}:
+        if sum("const" in m["properties"].get(name, {}) for m in members) >= 2:
+            return name
+    return None
+
+
 def leaves(model: type[BaseModel]) -> list[dict]:
     """Every leaf field reachable from ``model``'s JSON schema: dotted path (``<i>`` for
     an index), the discriminator value of the union member that holds it (None outside
@@ -55,6 +63,15 @@ def leaves(model: type[BaseModel]) -> list[dict]:
             p = f"{path}.{name}" if path else name
             spec = _resolve(spec, defs)
             opts = [spec] if "discriminator" in spec else _options(spec, defs)
+            tables = [o for o in opts if "properties" in o]
+            key = None
+            if len(tables) > 1:
+                # a union of tables told apart by a function: the members are known by the
+                # key each fixes to a constant; a member that fixes none (a stand-in that
+                # refuses unknown values) has no keys of its own to document
+                key = _constant_key(tables)
+                if key is not None:
+                    opts = [o for o in opts if "const" in o.get("properties", {}).get(key, {})]
             nested = False
             for o in opts:
                 items = _resolve(o.get("items", {}), defs) if o.get("type") == "array" else None
@@ -71,6 +88,9 @@ def leaves(model: type[BaseModel]) -> list[dict]:
                 elif members and all("properties" in _resolve(m, defs) for m in members):
                     for m in members:  # a union of tables without a discriminator
                         walk(m, sub, _resolve(m, defs)["title"])
+                    nested = True
+                elif "properties" in target and key is not None:
+                    walk(target, sub, target["properties"][key]["const"], skip=key)
                     nested = True
                 elif "properties" in target:
                     plain = sum("properties" in x for x in opts) > 1  # a union of tables

@@ -387,10 +387,10 @@ def _status(f: FieldInfo | None, model: type[BaseModel]) -> str:
 
 def _literal_key(models: list[type[BaseModel]]) -> str | None:
     """The key that tells union members apart when the union's discriminator is a
-    function: a field every member has, typed as a ``Literal`` of one value."""
-    for name in models[0].model_fields:
-        if all(name in m.model_fields and _single_literal(m.model_fields[name].annotation)
-               for m in models):
+    function: a field that at least two members type as a ``Literal`` of one value."""
+    for name in {n for m in models for n in m.model_fields}:
+        if sum(name in m.model_fields and _single_literal(m.model_fields[name].annotation)
+               for m in models) >= 2:
             return name
     return None
 
@@ -446,12 +446,15 @@ def sections(root: type[BaseModel] | None = None) -> list[Section]:
             cid = f"{sid}.{name}" if sid != "top" else name
             chead = f"[[{cid}]]" if many else f"[{cid}]"
             cpath = f"{child_path}.<i>" if many else child_path
-            # (a member named with a leading underscore is internal: the coupler union's
-            # stand-in for an unknown model, which has no keys to document)
-            models = [m for m in models if not m.__name__.startswith("_")]
             d = _discriminator(f, f.annotation) if len(models) > 1 else None
             if d is None and len(models) > 1:
+                # a union told apart by a function (the couplers): its members are known
+                # by the key each fixes to one value; a member that does not (the
+                # stand-in refusing an unknown model) has no keys of its own to document
                 d = _literal_key(models)
+                if d is not None:
+                    models = [m for m in models if d in m.model_fields
+                              and _single_literal(m.model_fields[d].annotation)]
             for m in models:
                 value = m.__name__ if len(models) > 1 else None  # a plain union
                 if d is not None:
