@@ -34,6 +34,8 @@ FULL = {
     "friction_wedge": {**load_gear_preset("friction-wedge-high"), "tracking_time": 2e-3,
                        "solid_stiffness": 4e9, "plate_backlash": 0.004},
     "table": {**load_gear_preset("mt-2"), "tracking_time": 3e-3, "solid_stiffness": 5e9},
+    "polymer": {**load_gear_preset("polymer-heavy-haul"), "tracking_time": 1e-3,
+                "solid_stiffness": 6e9},
 }
 S_TABLE = {"velocity": [0.0, 1.0, 4.0], "deflection": [0.0, 0.05],
            "values": [[1.0, 1.1], [0.9, 1.0], [0.8, 0.85]]}

@@ -44,6 +44,7 @@ from ltdsim.physics.draftgear import (
     table_curve,
     wedge_curves,
 )
+from ltdsim.physics.polymer import polymer_curves
 
 # ------------------------------------------------------------------ table layout
 #: columns every coupler row has: total slack m, initial deflection (offset added to
@@ -87,9 +88,18 @@ TABLE_COLUMNS = HYSTERETIC_COLUMNS + ("loading", "loading_len", "unloading",
                                       "unloading_len")
 (_, TAB_LOAD, TAB_NLOAD, TAB_UNL, TAB_NUNL) = layout(*TABLE_COLUMNS, start=N_COMMON)
 
+#: polymer (physics.polymer): static curve preload N, initial stiffness N/m, force at
+#: the travel N, exponent -; return ratio -, rate gains on loading and unloading -,
+#: rate speed m/s (the travel is the common column)
+POLYMER_COLUMNS = HYSTERETIC_COLUMNS + ("preload", "initial_stiffness", "force_at_travel",
+                                        "exponent", "return_ratio", "gain_loading",
+                                        "gain_unloading", "rate_speed")
+(_, POL_P, POL_K0, POL_FX, POL_N, POL_R, POL_AL, POL_AU, POL_VR) = layout(
+    *POLYMER_COLUMNS, start=N_COMMON)
+
 #: model codes (the kernel's ``model`` array); the order of :data:`MODELS`
-MODEL_NAMES = ("linear", "simplified", "friction_wedge", "table")
-(M_LINEAR, M_SIMPLIFIED, M_WEDGE, M_TABLE) = layout(*MODEL_NAMES)
+MODEL_NAMES = ("linear", "simplified", "friction_wedge", "table", "polymer")
+(M_LINEAR, M_SIMPLIFIED, M_WEDGE, M_TABLE, M_POLYMER) = layout(*MODEL_NAMES)
 
 
 # ------------------------------------------------------------------ compiled dispatch
@@ -147,6 +157,10 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     elif model == M_TABLE:
         f_l, s_l = table_curve(ctab, int(cpl[j, TAB_LOAD]), int(cpl[j, TAB_NLOAD]), x)
         f_u, s_u = table_curve(ctab, int(cpl[j, TAB_UNL]), int(cpl[j, TAB_NUNL]), x)
+    elif model == M_POLYMER:
+        f_l, f_u, s_l, s_u = polymer_curves(
+            x, v, cpl[j, POL_P], cpl[j, POL_K0], cpl[j, POL_FX], cpl[j, P_TRAVEL],
+            cpl[j, POL_N], cpl[j, POL_R], cpl[j, POL_AL], cpl[j, POL_AU], cpl[j, POL_VR])
     else:  # (no other hysteretic model: lowering gives only known codes)
         f_l = f_u = s_l = s_u = 0.0
     f, df1 = gear_force(f1, f_l, f_u, s_l, s_u, v, x, cpl[j, P_TRAVEL], cpl[j, P_KSOLID],
@@ -310,6 +324,29 @@ def _wedge_released(c) -> float:
         c.plate_gap, c.plate_backlash, 0.0))
 
 
+def _lower_polymer(c, tables) -> dict:
+    return {name: float(getattr(c, name)) for name in POLYMER_COLUMNS}
+
+
+def _polymer_stiffness(c, which: str) -> float:
+    """Linearised stiffness of a polymer gear, N/m: the slope of its static loading curve
+    at zero deflection (``initial_stiffness``) for "low", the same times the loading
+    curve's high-speed factor ``1 + gain_loading`` for "high" (the gear near its preload,
+    where a running train keeps most couplings)."""
+    k0 = float(c.initial_stiffness)
+    return k0 if which == "low" else k0 * (1.0 + float(c.gain_loading))
+
+
+def _polymer_stiffest(c) -> float:
+    """Tangent at its stiffest: the locked stiffness on top of the loading curve's slope
+    at the travel at high speed, and the solid gear, N/m."""
+    from ltdsim.physics.polymer import polymer_static
+
+    _, s = polymer_static(c.travel, c.preload, c.initial_stiffness, c.force_at_travel,
+                          c.travel, c.exponent)
+    return c.k_locked + (1.0 + c.gain_loading) * s + c.solid_stiffness
+
+
 #: the registry, in code order (:data:`MODEL_NAMES`)
 MODELS: tuple[CouplerModel, ...] = (
     CouplerModel("linear", LINEAR_COLUMNS, _lower_linear,
@@ -326,6 +363,11 @@ MODELS: tuple[CouplerModel, ...] = (
                                             _curve_slope(c.unloading)) + c.solid_stiffness,
                  states=lambda c: ("force",), released=lambda c: float(c.loading[0][1]),
                  max_states=1),
+    # polymer: one internal state (its force); released at its preload; linearised at
+    # the static loading slope at rest ("low") or at impact speeds ("high")
+    CouplerModel("polymer", POLYMER_COLUMNS, _lower_polymer, states=lambda c: ("force",),
+                 released=lambda c: float(c.preload),
+                 stiffness=_polymer_stiffness, stiffest=_polymer_stiffest, max_states=1),
 )
 REGISTRY: dict[str, CouplerModel] = {m.name: m for m in MODELS}
 assert tuple(REGISTRY) == MODEL_NAMES, "MODELS must follow MODEL_NAMES (their codes)"

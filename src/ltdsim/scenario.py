@@ -429,11 +429,47 @@ class TableGear(_HystereticGear):
             raise ValueError("the unloading curve must not lie above the loading curve")
 
 
+class PolymerGear(_HystereticGear):
+    """Polymer (elastomer) draft gear: a static curve stiffened by a rate factor of the
+    closing speed, with hysteresis (physics.polymer, docs/draftgear.md)."""
+
+    _required = ("preload", "initial_stiffness", "force_at_travel", "travel", "exponent",
+                 "return_ratio", "gain_loading", "gain_unloading", "rate_speed", "k_locked")
+
+    model: Literal["polymer"] = Field("polymer", description="coupler model")
+    preload: float | None = Field(None, ge=0.0, le=1e7,
+                                  description="static force at zero deflection, N")
+    initial_stiffness: float | None = Field(None, ge=0.0, le=1e10,
+                                            description="static slope at zero deflection, N/m")
+    force_at_travel: float | None = Field(None, gt=0.0, le=1e8,
+                                          description="static loading force at the travel, N")
+    exponent: float | None = Field(None, ge=1.0, le=20.0,
+                                   description="stiffening exponent of the static curve, -")
+    return_ratio: float | None = Field(None, gt=0.0, le=1.0,
+                                       description="static unloading / loading force, -")
+    gain_loading: float | None = Field(None, ge=0.0, le=100.0,
+                                       description="relative rise of the loading curve at "
+                                                   "high closing speed, -")
+    gain_unloading: float | None = Field(None, ge=0.0, le=100.0,
+                                         description="relative rise of the unloading curve "
+                                                     "at high closing speed, -")
+    rate_speed: float | None = Field(None, gt=0.0, le=100.0,
+                                     description="closing-speed scale of the rise, m/s")
+
+    def _check(self) -> None:
+        if self.force_at_travel < self.preload + self.initial_stiffness * self.travel:
+            raise ValueError("force_at_travel must be at least preload + initial_stiffness "
+                             "* travel (the static curve never falls)")
+        if self.return_ratio * self.gain_unloading > self.gain_loading:
+            raise ValueError("return_ratio * gain_unloading must not exceed gain_loading, "
+                             "or unloading would lie above loading at speed")
+
+
 #: the coupler models' schema classes by ``model`` name (the order of
 #: ``ltdsim.coupler_models.MODEL_NAMES``)
 COUPLER_CLASSES: dict[str, type[_CouplerBase]] = {
     "linear": LinearCoupler, "simplified": SimplifiedCoupler,
-    "friction_wedge": FrictionWedgeGear, "table": TableGear}
+    "friction_wedge": FrictionWedgeGear, "table": TableGear, "polymer": PolymerGear}
 class _UnknownCoupler(_Strict):
     """Stand-in member of the coupler union for an unknown ``model``: its only check
     refuses the name, listing the models (as a Literal does)."""

@@ -58,9 +58,8 @@ from __future__ import annotations
 
 from numba import njit
 
-from ltdsim.physics.couplers import solid_closure
 from ltdsim.physics.decay import exp_neg
-from ltdsim.physics.draftgear import hysteresis
+from ltdsim.physics.draftgear import gear_force
 
 
 @njit(cache=True, inline="always")
@@ -128,25 +127,17 @@ def polymer_gear(f1, x, v, preload, initial_stiffness, force_at_travel, travel, 
     """One polymer gear in contact: its force and the rate of its internal force.
 
     Returns ``(F, dF1/dt)``: ``F`` (N, >= 0, a magnitude) and the rate of the internal
-    force ``F1`` (N/s), from :func:`polymer_curves` with the solid gear added past
-    ``travel`` (``solid_stiffness``, N/m, :func:`ltdsim.physics.couplers.solid_closure`)
-    and the shared band law :func:`ltdsim.physics.draftgear.hysteresis` (``k_locked``
-    N/m, ``rate`` the internal force's tracking rate, 1/s): the same steps as the
-    kernel's hysteretic gears take, for a gear on its own (tests, rigs). ``x`` (m) and
-    ``v`` (m/s) are magnitudes as in the module docstring.
+    force ``F1`` (N/s), from :func:`polymer_curves` and the part all hysteretic gears
+    share, :func:`ltdsim.physics.draftgear.gear_force` (the solid gear past ``travel``
+    with ``solid_stiffness`` N/m, the band law with ``k_locked`` N/m and ``rate`` the
+    internal force's tracking rate 1/s): the same steps as the kernel takes, for a gear
+    on its own (tests, rigs). ``x`` (m) and ``v`` (m/s) are magnitudes as in the module
+    docstring.
     """
     f_l, f_u, s_l, s_u = polymer_curves(x, v, preload, initial_stiffness, force_at_travel,
                                         travel, exponent, return_ratio, gain_loading,
                                         gain_unloading, rate_speed)
-    solid = solid_closure(x, travel, solid_stiffness)
-    if solid > 0.0:
-        f_l += solid
-        f_u += solid
-        s_l += solid_stiffness
-        s_u += solid_stiffness
-    f_u = min(f_u, f_l)
-    f, df1 = hysteresis(f1, f_l, f_u, s_l, s_u, v, k_locked, rate)
-    return max(0.0, f), df1
+    return gear_force(f1, f_l, f_u, s_l, s_u, v, x, travel, solid_stiffness, k_locked, rate)
 
 
 __all__ = ["polymer_curves", "polymer_gear", "polymer_static", "rate_factor"]
