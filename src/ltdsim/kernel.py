@@ -532,32 +532,16 @@ def brake_target(t, delay, events, n_events):
     return 0.0
 
 
-@njit(cache=True, _nrt=False, forceinline=True)
-def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
-    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements).
-
-    ``tr``, ``cp``, ``dr``: :class:`Train`, :class:`Couplers`, :class:`Driver`;
-    ``a_dem`` the demanded acceleration held by the speed controller (m/s^2);
-    ``events[:n_events]`` the brake commands issued so far. Also fills, in the
-    :class:`Work` ``w``: ``force``/``defl`` (coupler force N, deflection m), ``res``
-    (resistance per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing
-    forward motion), ``fcons`` (force of each locomotive consist, N) and the signals
-    ``sig`` (total traction force N, traction demand before the traction-curve limits
-    N, total resistance N). ``w.hints`` holds search cursors (``[0, n)`` track, ``n``
-    driver profile, ``n + 1`` speed profile); they change only how fast a lookup is,
-    never its result.
-    """
+@njit(cache=True, inline="always")
+def _resistance(y, tr, w):
+    """Running resistance of every vehicle (N, + opposing forward motion) at state ``y``:
+    Davis terms at its speed, grade and curve resistance of the track segment under it.
+    Writes ``w.res`` and the total to ``w.sig["resistance"]``; returns the total, N."""
     veh = tr.veh
-    cons = tr.cons
-    trac = tr.trac
-    ctab = tr.tables
-    drv = dr.par
-    cpl = cp.par
     hints = w.hints
     res = w.res
-    force = w.force
     n = veh.shape[0]
-    g = trac[T_G]
+    g = tr.trac[T_G]
     rtot = 0.0
     for i in range(n):
         v = y[n + i]
@@ -570,7 +554,23 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
         r += curve_resistance(v, wm, tr.track_curv[kt], tr.curve_h, g)
         rtot += r
         res[i] = r
-    if drv[D_BFULLSUM] > 0.0:  # air brakes: each fill follows the command that has arrived
+    w.sig[0]["resistance"] = rtot
+    return rtot
+
+
+@njit(cache=True, inline="always")
+def _brakes(t, y, events, n_events, tr, dr, w, dy):
+    """Air brakes at time ``t`` (s): each brake-cylinder fill (0-1) follows the latest
+    of the commands ``events[:n_events]`` to have reached its vehicle, with the apply or
+    release time constant (s); its rate (1/s) goes to ``dy``. The shoe force (N) times
+    the shoe friction gives the braking force, written to ``w.bforce`` (N, + opposing
+    forward motion) and added to ``w.res``. Nothing when the train has no air brakes."""
+    drv = dr.par
+    if drv[D_BFULLSUM] > 0.0:
+        veh = tr.veh
+        ctab = tr.tables
+        res = w.res
+        n = veh.shape[0]
         vs = drv[D_BVS]
         for i in range(n):
             zb = int(veh[i, V_BZ])
@@ -589,6 +589,28 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
                                         * shoe_friction(i, v, shoe, veh, ctab), vs)
             w.bforce[i] = fb
             res[i] += fb
+
+
+@njit(cache=True, inline="always")
+def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
+    """Traction and dynamic-brake force of each locomotive consist (N, + forward) at
+    time ``t`` (s), written to ``w.fcons``; the motor lags' rates (N/s) go to ``dy``.
+
+    The driver's demand by mode: speed, the held demanded acceleration ``a_dem``
+    (m/s^2) times the train's mass plus the feed-forward share of the total resistance
+    ``rtot`` (N); force, the force profile (N); notch, the held notch (0-8) as a share
+    of each consist's limit. A consist with its own notch schedule follows that. The
+    demand is shared among the consists and clipped to each one's traction curve
+    (force, power and adhesion limits, N). Writes the total applied force and the total
+    demand before the limits (N) to ``w.sig``."""
+    veh = tr.veh
+    cons = tr.cons
+    trac = tr.trac
+    ctab = tr.tables
+    drv = dr.par
+    hints = w.hints
+    n = veh.shape[0]
+    g = trac[T_G]
     mode = drv[D_MODE]
     fd = 0.0
     if mode == MODE_SPEED:
@@ -614,7 +636,8 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
         z = int(cons[c, K_Z])
         if z >= 0:  # motor and inverter lag, with the jerk limit on its rate
             f = y[z]
-            rate = (dl - f) / cons[c, K_TAU] if abs(dl - f) > 1e-6 else 0.0  # (as above)
+            # (settled within 1e-6 N: an endless decay ends in slow subnormals)
+            rate = (dl - f) / cons[c, K_TAU] if abs(dl - f) > 1e-6 else 0.0
             rmax = cons[c, K_RATE]
             if rmax > 0.0:
                 rate = min(max(rate, -rmax), rmax)
@@ -630,15 +653,37 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     sig = w.sig[0]
     sig["traction"] = ftot
     sig["demand"] = fdem
-    sig["resistance"] = rtot
+
+
+@njit(cache=True, inline="always")
+def _couplers(y, tr, cp, w, dy):
+    """Force (N, + tension) and deflection (m, + draft) of every coupler at state
+    ``y``, written to ``w.force`` and ``w.defl``; the hysteretic gears' state rates go
+    to ``dy`` (:func:`coupler_force`)."""
+    cpl = cp.par
+    ctab = tr.tables
+    force = w.force
+    n = tr.veh.shape[0]
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
         f = coupler_force(j, cp.model[j], d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
         force[j] = f
         w.defl[j] = d
+
+
+@njit(cache=True, inline="always")
+def _force_balance(y, tr, w, dy):
+    """Newton's second law for every vehicle: its share of its consist's force, minus
+    its resistance and brake force, plus the coupler forces from its neighbours (all N)
+    over its mass gives its acceleration (m/s^2), written to ``dy[n:2n]``; its speed
+    (m/s) is its displacement's rate, ``dy[0:n]``."""
+    veh = tr.veh
     inv_m = tr.inv_m
     fcons = w.fcons
+    res = w.res
+    force = w.force
+    n = veh.shape[0]
     for i in range(n):
         # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
         f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
@@ -648,6 +693,29 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
             f += force[i - 1]
         dy[i] = y[n + i]
         dy[n + i] = f * inv_m[i]
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
+    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements):
+    resistance, brakes, traction, couplers, force balance, in that order.
+
+    ``tr``, ``cp``, ``dr``: :class:`Train`, :class:`Couplers`, :class:`Driver`;
+    ``a_dem`` the demanded acceleration held by the speed controller (m/s^2);
+    ``events[:n_events]`` the brake commands issued so far. Also fills, in the
+    :class:`Work` ``w``: ``force``/``defl`` (coupler force N, deflection m), ``res``
+    (resistance per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing
+    forward motion), ``fcons`` (force of each locomotive consist, N) and the signals
+    ``sig`` (total traction force N, traction demand before the traction-curve limits
+    N, total resistance N). ``w.hints`` holds search cursors (``[0, n)`` track, ``n``
+    driver profile, ``n + 1`` speed profile); they change only how fast a lookup is,
+    never its result.
+    """
+    rtot = _resistance(y, tr, w)
+    _brakes(t, y, events, n_events, tr, dr, w, dy)
+    _traction(t, y, a_dem, rtot, tr, dr, w, dy)
+    _couplers(y, tr, cp, w, dy)
+    _force_balance(y, tr, w, dy)
 
 
 @njit(cache=True, inline="always")
