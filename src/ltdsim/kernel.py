@@ -21,20 +21,35 @@ steps and its output held over the step (zero-order hold), as a digital controll
 every continuous quantity is a pure function of ``(t, y)``, so any Runge-Kutta method
 can evaluate it any number of times per step.
 
-Compiling. The small helpers are inlined by numba into their callers
-(``inline="always"``). The large ones (:func:`rhs`, :func:`_gear`, :func:`_record`,
-:func:`_controller`, :func:`_brake_commands`) are compiled once each and inlined by
-LLVM instead (``forceinline=True``): numba's own inlining copies and types a function's
+The right-hand side :func:`rhs` calls one function per subsystem, in this order:
+:func:`_resistance` (running, grade and curve resistance per vehicle), :func:`_brakes`
+(brake-cylinder fills and shoe forces), :func:`_traction` (the driver's demand and each
+locomotive consist's force and lag), :func:`_couplers` (each coupler's force through
+:func:`coupler_force`) and :func:`_force_balance` (each vehicle's acceleration). They
+pass their results through the :class:`Work` arrays (``res``, ``bforce``, ``fcons``,
+``force``, ``defl``, ``sig``) and write their states' rates to ``dy``.
+
+Stepping. One stage routine, :func:`_stages`, computes the stages of any explicit
+Runge-Kutta tableau for any right-hand side passed to it as a compiled function (numba
+compiles it once per right-hand side): the train's (:func:`_train_rhs`) in :func:`run`
+and :func:`run_adaptive`, the gear rig's in :mod:`ltdsim.gear`. :func:`_advance` ends a
+fixed step (``run`` and the rig); the adaptive kernel forms the bs23 solution and error
+from the tableau's ``b`` and ``e`` weights. Both train kernels sample the controller on
+one clock, :func:`_sample_due`.
+
+Compiling. The small helpers, the subsystems of :func:`rhs` among them (each called
+from one place), are inlined by numba into their callers (``inline="always"``). The
+large ones (:func:`rhs`, :func:`_gear`, :func:`_record`, :func:`_controller`,
+:func:`_brake_commands`, :func:`_stages` and the right-hand sides it is given) are
+compiled once each and inlined by LLVM instead (``forceinline=True``): numba's own inlining copies and types a function's
 whole body again at every call site, and with the right-hand side then called from
 three places in :func:`run` and four in :func:`run_adaptive` their first compile took
 about 140 s and 200 s of CPU (now about 17 s each, and the second shares most of the
-first). Both kernels take their Runge-Kutta stages from one routine, :func:`_stages`,
-and sample the controller on one clock, :func:`_sample_due`.
-The compiled kernels hold no calls to these functions: the machine code does the same
-work as before. No argument of these functions may be a constant at a call site either:
-numba compiles a function once per set of argument types, and a constant such as ``0``
-or ``True`` is a type of its own (hence the stage slices ``K[s * ny:(s + 1) * ny]``
-rather than an offset ``0``).
+first). The compiled kernels hold no calls to these functions: the machine code does
+the same work as before. No argument of these functions may be a constant at a call
+site either: numba compiles a function once per set of argument types, and a constant
+such as ``0`` or ``True`` is a type of its own (hence the stage slices
+``K[s * ny:(s + 1) * ny]`` rather than an offset ``0``).
 """
 
 from __future__ import annotations
@@ -840,13 +855,14 @@ def _sample_due(t, st, ts, tol):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _stages(t, y, h, A, C, ns, a_dem, n_events, tr, cp, dr, events, w):
+def _stages(f, p, t, y, h, A, C, ns, K, ytmp):
     """Stages 2 to ``ns`` of an explicit Runge-Kutta step of size ``h`` (s) from
-    ``(t, y)``, given stage 1 at ``w.K[0:ny]``: stage s is the right-hand side at
-    ``t + C[s] h`` and ``y + h sum_j A[s, j] K_j``, written to ``w.K[s * ny:(s + 1) *
-    ny]``. The one stage routine of :func:`run` and :func:`run_adaptive`."""
-    K = w.K
-    ytmp = w.ytmp
+    ``(t, y)`` of the right-hand side ``f(t, y, dy, p)`` (a compiled function writing
+    ``dy/dt`` to ``dy``; ``p`` its other arguments, one tuple), given stage 1 at
+    ``K[0:ny]``: stage s is ``f`` at ``t + C[s] h`` and ``y + h sum_j A[s, j] K_j``,
+    written to ``K[s * ny:(s + 1) * ny]``; ``ytmp`` (``ny`` elements) holds the stage
+    state. The one stage routine of :func:`run`, :func:`run_adaptive` and the gear rig
+    (:mod:`ltdsim.gear`)."""
     ny = y.shape[0]
     for s in range(1, ns):
         # (loops over the state innermost, one pass per nonzero coefficient: vectorised)
@@ -865,8 +881,36 @@ def _stages(t, y, h, A, C, ns, a_dem, n_events, tr, cp, dr, events, w):
         if first:
             for q in range(ny):
                 ytmp[q] = y[q]
-        rhs(t + C[s] * h, ytmp, a_dem, n_events, tr, cp, dr, events, w,
-            K[s * ny:(s + 1) * ny])
+        f(t + C[s] * h, ytmp, K[s * ny:(s + 1) * ny], p)
+
+
+@njit(cache=True, inline="always")
+def _advance(y, h, B, ns, K, inc):
+    """End of a Runge-Kutta step of size ``h`` (s): ``y += h sum_s B[s] K_s`` over the
+    ``ns`` stages at ``K[s * ny:(s + 1) * ny]``, the increment summed first (in ``inc``,
+    ``ny`` elements) for accuracy. Returns the sum of the new state's elements, finite
+    exactly when every element is. The step's end for :func:`run` and the gear rig."""
+    ny = y.shape[0]
+    for q in range(ny):
+        inc[q] = 0.0
+    for s in range(ns):
+        wt = h * B[s]
+        o = s * ny
+        for q in range(ny):
+            inc[q] += wt * K[o + q]
+    total = 0.0
+    for q in range(ny):
+        y[q] += inc[q]
+        total += y[q]
+    return total
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _train_rhs(t, y, dy, p):
+    """:func:`rhs` in the form :func:`_stages` calls: ``p = (a_dem, n_events, tr, cp,
+    dr, events, w)``, its arguments after ``y``."""
+    a_dem, n_events, tr, cp, dr, events, w = p
+    rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -949,19 +993,9 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         if c_rec == 0:
             _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
                     out)
-        _stages(t, y, dt, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
-        # y += dt * sum_s b_s K_s, increment summed first for accuracy
-        for q in range(ny):
-            ytmp[q] = 0.0
-        for s in range(ns):
-            wt = dt * B[s]
-            o = s * ny
-            for q in range(ny):
-                ytmp[q] += wt * K[o + q]
-        total = 0.0
-        for q in range(ny):
-            y[q] += ytmp[q]
-            total += y[q]
+        _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
+                ytmp)
+        total = _advance(y, dt, B, ns, K, ytmp)
         if not (total - total == 0.0):
             return NONFINITE, k + 1
         c_rec += 1
@@ -1064,7 +1098,8 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             h_try = t_next - t
             hit = True
         # ---- one step of the embedded pair: its stages, the solution kept, the error
-        _stages(t, y, h_try, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
+        _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, h_try, A, C, ns,
+                K, w.ytmp)
         # (sums over the stages built one pass per stage, the state innermost: vectorised)
         for q in range(ny):
             ynew[q] = B[0] * K[q]
