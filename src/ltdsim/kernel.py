@@ -166,7 +166,7 @@ from ltdsim.physics.brakes import (
     brake_retardation,
     karwatzki,
 )
-from ltdsim.physics.control import pid_step
+from ltdsim.physics.control import PID_STATE, pid_step
 from ltdsim.physics.couplers import coupler_linear, simplified_force, solid_closure
 from ltdsim.physics.draftgear import (
     hysteresis,
@@ -250,7 +250,7 @@ class Controller(NamedTuple):
     """What the driver has done so far; updated in place, carried between calls."""
 
     state: np.ndarray  # one CONTROLLER record
-    pid: np.ndarray  # (2,) PID integrator and derivative-filter states
+    pid: np.ndarray  # one PID_STATE record (physics.control): integrator, filter states
     events: np.ndarray  # (MAX_EVENTS, 2) brake commands issued, EV_* columns
 
 
@@ -331,7 +331,8 @@ def make_driver(low) -> Driver:
 def make_controller(events: np.ndarray) -> Controller:
     """A controller that has done nothing yet, issuing its brake commands into
     ``events`` (``(max commands, 2)``, ``EV_*`` columns)."""
-    return Controller(state=np.zeros(1, dtype=CONTROLLER), pid=np.zeros(2), events=events)
+    return Controller(state=np.zeros(1, dtype=CONTROLLER), pid=np.zeros(1, dtype=PID_STATE),
+                      events=events)
 
 
 def make_stepper(h0: float) -> np.ndarray:
@@ -924,7 +925,7 @@ def _controller(t, y, ctl, tr, dr, w):
     trac = tr.trac
     n = tr.veh.shape[0]
     st = ctl.state[0]
-    pid = ctl.pid
+    pid = ctl.pid[0]
     ts = drv[D_TS]
     vref = _interp(dr.prof_t, dr.prof_y, t, w.hints, n + 1)
     e = vref - y[n + int(trac[T_REF])]
@@ -937,7 +938,7 @@ def _controller(t, y, ctl, tr, dr, w):
         saturated = (abs(sig["demand"]) > abs(sig["traction"]) * (1.0 + 1e-9)
                      and sig["demand"] * e > 0.0)
         if clipped or saturated:
-            pid[0] -= ts * e  # the integrator state (physics.control.pid_step)
+            pid["integrator"] -= ts * e
     st["a_dem"] = uc
     st["v_ref"] = vref
 
