@@ -38,20 +38,20 @@ from the tableau's ``b`` and ``e`` weights, its three stages written out in one 
 over the state each (fewer instructions than a pass per stage). Both train kernels
 sample the controller on one clock, :func:`_sample_due`.
 
-Compiling. The small helpers, the subsystems of :func:`rhs` among them (each called
-from one place), are inlined by numba into their callers (``inline="always"``). The
-large ones (:func:`rhs`, :func:`_gear`, :func:`_record`, :func:`_controller`,
-:func:`_brake_commands`, :func:`_stages` and the right-hand sides it is given) are
-compiled once each and inlined by LLVM instead (``forceinline=True``): numba's own
-inlining copies and types a function's whole body again at every call site, and with
-the right-hand side then called from three places in :func:`run` and four in
-:func:`run_adaptive` their first compile took about 140 s and 200 s of CPU (now about
-17 s each, and the second shares most of the first). The compiled kernels hold no
-calls to these functions: the machine code does the same work as before. No argument
-of these functions may be a constant at a call site either: numba compiles a function
-once per set of argument types, and a constant such as ``0`` or ``True`` is a type of
-its own (hence the stage slices ``K[s * ny:(s + 1) * ny]`` rather than an offset
-``0``).
+Compiling. The small helpers are inlined by numba into their callers
+(``inline="always"``). The large ones (:func:`rhs` and its subsystems, :func:`_gear`,
+:func:`_record`, :func:`_controller`, :func:`_brake_commands`, :func:`_stages` and the
+right-hand sides it is given) are compiled once each and inlined by LLVM instead
+(``forceinline=True``; the subsystems inlined by numba ran 2.4 % more instructions in
+the fixed-step kernel): numba's own inlining copies and types a function's whole body
+again at every call site, and with the right-hand side then called from three places in
+:func:`run` and four in :func:`run_adaptive` their first compile took about 140 s and
+200 s of CPU (now about 17 s each, and the second shares most of the first). The
+compiled kernels hold no calls to these functions: the machine code does the same work
+as before. No argument of these functions may be a constant at a call site either: numba
+compiles a function once per set of argument types, and a constant such as ``0`` or
+``True`` is a type of its own (hence the stage slices ``K[s * ny:(s + 1) * ny]`` rather
+than an offset ``0``).
 """
 
 from __future__ import annotations
@@ -551,7 +551,7 @@ def brake_target(t, delay, events, n_events):
     return 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _resistance(y, tr, w):
     """Running resistance of every vehicle (N, + opposing forward motion) at state ``y``:
     Davis terms at its speed, grade and curve resistance of the track segment under it.
@@ -577,7 +577,7 @@ def _resistance(y, tr, w):
     return rtot
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _brakes(t, y, events, n_events, tr, dr, w, dy):
     """Air brakes at time ``t`` (s): each brake-cylinder fill (0-1) follows the latest
     of the commands ``events[:n_events]`` to have reached its vehicle, with the apply or
@@ -610,7 +610,7 @@ def _brakes(t, y, events, n_events, tr, dr, w, dy):
             res[i] += fb
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
     """Traction and dynamic-brake force of each locomotive consist (N, + forward) at
     time ``t`` (s), written to ``w.fcons``; the motor lags' rates (N/s) go to ``dy``.
@@ -674,7 +674,7 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
     sig["demand"] = fdem
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _couplers(y, tr, cp, w, dy):
     """Force (N, + tension) and deflection (m, + draft) of every coupler at state
     ``y``, written to ``w.force`` and ``w.defl``; the hysteretic gears' state rates go
@@ -691,7 +691,7 @@ def _couplers(y, tr, cp, w, dy):
         w.defl[j] = d
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, _nrt=False, forceinline=True)
 def _force_balance(y, tr, w, dy):
     """Newton's second law for every vehicle: its share of its consist's force, minus
     its resistance and brake force, plus the coupler forces from its neighbours (all N)
