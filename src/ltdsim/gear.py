@@ -1,8 +1,12 @@
 """A single draft gear on a test rig: prescribed deflection, or a mass driven by a force.
 
 The rig uses the train's own coupler code (:func:`ltdsim.coupler_models.coupler_force`,
-the coupler lowered by :func:`~ltdsim.coupler_models.lower_coupler`) and Runge-Kutta
-tableaux, so a gear behaves here exactly as it does in a train.
+the coupler lowered by :func:`~ltdsim.coupler_models.lower_coupler`), Runge-Kutta
+tableaux and stage routine (:func:`ltdsim.kernel._stages`, given the rig's right-hand
+side), so a gear behaves here exactly as it does in a train. The compiled rig
+:func:`_rig` takes named structures: the state, the :class:`Rig` (the coupler and its
+drive), the step (:class:`ltdsim.kernel.FixedStep`), its :class:`RigWork` and
+:class:`RigOutputs`.
 
 * ``drive_deflection``: the gear deflection ``d(t)`` (and its rate) is prescribed; the
   gear's internal states are integrated; returns its force. This draws force-deflection
@@ -16,6 +20,7 @@ tableaux, so a gear behaves here exactly as it does in a train.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -28,66 +33,101 @@ from ltdsim.coupler_models import (
     released_force,
 )
 from ltdsim.integrators import get_tableau
-from ltdsim.kernel import _interp
+from ltdsim.kernel import Couplers, FixedStep, _advance, _interp, _stages
 from ltdsim.scenario import CouplerParams, Scenario
 
 MODE_DEFLECTION, MODE_FORCE = 0, 1
+#: the rig's state ``y``: deflection m (+ draft), its rate m/s, then the gear's states
+#: from ``Y_GEAR`` on (as in a train, :mod:`ltdsim.kernel`)
+Y_D, Y_V, Y_GEAR = 0, 1, 2
+#: search cursors of the drive's lookups (:class:`RigWork` ``hints``): deflection,
+#: deflection rate, force
+H_D, H_V, H_F = 0, 1, 2
 
 
-@njit(cache=True, _nrt=False)
-def _rig(mode, model, cpl, ctab, mass, t_tab, a_tab, b_tab, dt, n_steps, A, B, C,
-         y, out_t, out_d, out_v, out_f, work, hints):
-    """Integrate the rig; record every step. ``mode`` deflection: ``a_tab``/``b_tab``
-    are d(t) (m) and d'(t) (m/s); force: ``a_tab`` is F(t) (N). State
-    ``y = [d, d', gear states]``."""
-    ny = y.shape[0]
-    ns = B.shape[0]
+class Rig(NamedTuple):
+    """One coupler on the rig and what drives it."""
+
+    couplers: Couplers  # the coupler, as coupler 0 of a train (kernel.Couplers)
+    tables: np.ndarray  # the table store its parameters point into (kernel.Train.tables)
+    mode: int  # MODE_DEFLECTION or MODE_FORCE
+    mass: float  # driven mass, kg (force mode)
+    t: np.ndarray  # times of the drive's samples, s
+    a: np.ndarray  # deflection d(t), m (deflection mode), or force F(t), N (force mode)
+    b: np.ndarray  # deflection rate d'(t), m/s (deflection mode)
+
+
+class RigWork(NamedTuple):
+    """Scratch arrays of :func:`_rig`."""
+
+    K: np.ndarray  # stage derivatives, stage s at K[s * ny:(s + 1) * ny]
+    ytmp: np.ndarray  # (ny,) stage state, then the step's increment
+    hints: np.ndarray  # (3,) int64 search cursors, H_* slots
+
+
+class RigOutputs(NamedTuple):
+    """The rig's record, one element per step (and the final state)."""
+
+    t: np.ndarray  # time, s
+    d: np.ndarray  # deflection, m (+ draft)
+    v: np.ndarray  # deflection rate, m/s
+    f: np.ndarray  # gear force, N (+ tension)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _rig_rhs(t, y, dy, p):
+    """Right-hand side of the rig at ``(t, y)`` (in the form :func:`ltdsim.kernel._stages`
+    calls, ``p = (rig, hints)``), written to ``dy``. Deflection mode: the deflection and
+    its rate are the drive's, ``y[Y_D]``/``y[Y_V]`` stay still; force mode: the mass
+    ``m d'' = F(t) - T(d, d')``. Returns the deflection (m), its rate (m/s) and the gear
+    force (N, + tension)."""
+    rig, hints = p
+    cp = rig.couplers
     # the coupler's index typed int64, not as the literal 0 (a type of its own): the rig
     # then uses the gear function the train kernels compiled (coupler_models._gear)
     j = np.int64(0)
-    K = work[0:ns * ny]
-    ytmp = work[ns * ny:ns * ny + ny]
-    inc = work[ns * ny + ny:ns * ny + 2 * ny]
-    for k in range(n_steps + 1):
+    if rig.mode == MODE_DEFLECTION:
+        d = _interp(rig.t, rig.a, t, hints, H_D)
+        dd = _interp(rig.t, rig.b, t, hints, H_V)
+    else:
+        d = y[Y_D]
+        dd = y[Y_V]
+    f = coupler_force(j, cp.model[j], d, dd, y, Y_GEAR, dy, Y_GEAR, cp.par, rig.tables)
+    if rig.mode == MODE_DEFLECTION:
+        dy[Y_D] = 0.0
+        dy[Y_V] = 0.0
+    else:
+        dy[Y_D] = dd
+        dy[Y_V] = (_interp(rig.t, rig.a, t, hints, H_F) - f) / rig.mass
+    return d, dd, f
+
+
+@njit(cache=True, _nrt=False)
+def _rig(y, rig, fs, w, out):
+    """Integrate the rig from ``y`` (``[d, d', gear states]``, updated in place) with
+    the fixed-step method ``fs`` (:class:`ltdsim.kernel.FixedStep`; its ``record_every``
+    is not read: the rig records every step), ``rig`` a :class:`Rig`, ``w`` its
+    :class:`RigWork`; writes the :class:`RigOutputs` ``out`` at every step and at the
+    end. The stages are the train kernels' (:func:`ltdsim.kernel._stages`)."""
+    ny = y.shape[0]
+    ns = fs.b.shape[0]
+    dt = fs.dt
+    K = w.K
+    p = (rig, w.hints)
+    for k in range(fs.n_steps + 1):
         t = k * dt
-        for s in range(ns):
-            ts = t + C[s] * dt
-            for q in range(ny):
-                ytmp[q] = y[q]
-            for jj in range(s):
-                w = dt * A[s, jj]
-                if w != 0.0:
-                    for q in range(ny):
-                        ytmp[q] += w * K[jj * ny + q]
-            o = s * ny
-            if mode == MODE_DEFLECTION:
-                ytmp[0] = _interp(t_tab, a_tab, ts, hints, 0)
-                ytmp[1] = _interp(t_tab, b_tab, ts, hints, 1)
-            f = coupler_force(j, model, ytmp[0], ytmp[1], ytmp, 2, K, o + 2, cpl, ctab)
-            if mode == MODE_DEFLECTION:
-                K[o] = 0.0
-                K[o + 1] = 0.0
-            else:
-                K[o] = ytmp[1]
-                K[o + 1] = (_interp(t_tab, a_tab, ts, hints, 2) - f) / mass
-            if s == 0:
-                out_t[k] = t
-                out_d[k] = ytmp[0]
-                out_v[k] = ytmp[1]
-                out_f[k] = f
-        if k == n_steps:
+        d, dd, f = _rig_rhs(t, y, K[0:ny], p)
+        out.t[k] = t
+        out.d[k] = d
+        out.v[k] = dd
+        out.f[k] = f
+        if k == fs.n_steps:
             break
-        for q in range(ny):
-            inc[q] = 0.0
-        for s in range(ns):
-            w = dt * B[s]
-            for q in range(ny):
-                inc[q] += w * K[s * ny + q]
-        for q in range(ny):
-            y[q] += inc[q]
+        _stages(_rig_rhs, p, t, y, dt, fs.A, fs.c, ns, K, w.ytmp)
+        _advance(y, dt, fs.b, ns, K, w.ytmp)
 
 
-def _lowered_gear(params: CouplerParams, dt: float):
+def _lowered_gear(params: CouplerParams):
     """Kernel arrays for one coupler: its model code, its row of the coupler table
     (shape ``(1, N_CCOL)``) and the table store, lowered by
     :func:`ltdsim.coupler_models.lower_coupler` as a train's coupler is (neutral
@@ -107,19 +147,24 @@ class _Run:
 
 def rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
              f0=0.0) -> tuple:
-    """Arguments of :func:`_rig` for :func:`integrate_rig`; ``args[14:18]`` are the
-    output arrays (time s, deflection m, rate m/s, force N)."""
+    """Arguments of :func:`_rig` for :func:`integrate_rig`: ``(y, rig, step, work,
+    outputs)``, the last a :class:`RigOutputs` (time s, deflection m, rate m/s, force
+    N)."""
     tab = get_tableau(method)
     n_steps = int(round(t_end / dt))
-    ny = 2 + N_GEAR_STATES
+    ny = Y_GEAR + N_GEAR_STATES
     y = np.zeros(ny)
-    y[2] = f0
-    outs = [np.empty(n_steps + 1) for _ in range(4)]
-    work = np.zeros(tab.stages * ny + 2 * ny)
-    hints = np.zeros(3, dtype=np.int64)
-    return (mode, model, cpl, ctab, float(mass), np.ascontiguousarray(t_tab, dtype=float),
-            np.ascontiguousarray(a_tab, dtype=float), np.ascontiguousarray(b_tab, dtype=float),
-            dt, n_steps, tab.A, tab.b, tab.c, y, *outs, work, hints)
+    y[Y_GEAR] = f0
+    rig = Rig(couplers=Couplers(model=np.array([model], dtype=np.int64), par=cpl),
+              tables=ctab, mode=int(mode), mass=float(mass),
+              t=np.ascontiguousarray(t_tab, dtype=float),
+              a=np.ascontiguousarray(a_tab, dtype=float),
+              b=np.ascontiguousarray(b_tab, dtype=float))
+    fs = FixedStep(dt=float(dt), n_steps=n_steps, record_every=1, A=tab.A, b=tab.b, c=tab.c)
+    work = RigWork(K=np.zeros(tab.stages * ny), ytmp=np.zeros(ny),
+                   hints=np.zeros(3, dtype=np.int64))
+    out = RigOutputs(*(np.empty(n_steps + 1) for _ in range(4)))
+    return y, rig, fs, work, out
 
 
 def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
@@ -128,11 +173,12 @@ def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, 
     internal force of a hysteretic gear, N."""
     args = rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method, f0)
     _rig(*args)
-    return _Run(*args[14:18])
+    out = args[-1]
+    return _Run(out.t, out.d, out.v, out.f)
 
 
 def _run_rig(params, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method) -> _Run:
-    model, cpl, ctab = _lowered_gear(params, dt)
+    model, cpl, ctab = _lowered_gear(params)
     # a released hysteretic gear starts on its loading curve (its internal force, the
     # first state)
     f0 = released_force(params)

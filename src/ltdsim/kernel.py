@@ -23,20 +23,38 @@ steps and its output held over the step (zero-order hold), as a digital controll
 every continuous quantity is a pure function of ``(t, y)``, so any Runge-Kutta method
 can evaluate it any number of times per step.
 
+The right-hand side :func:`rhs` calls one function per subsystem, in this order:
+:func:`_resistance` (running, grade and curve resistance per vehicle), :func:`_brakes`
+(brake-cylinder fills and shoe forces), :func:`_traction` (the driver's demand and each
+locomotive consist's force and lag), :func:`_couplers` (each coupler's force through
+:func:`ltdsim.coupler_models.coupler_force`, the registry's dispatch) and
+:func:`_force_balance` (each vehicle's acceleration). They
+pass their results through the :class:`Work` arrays (``res``, ``bforce``, ``fcons``,
+``force``, ``defl``, ``sig``) and write their states' rates to ``dy``.
+
+Stepping. One stage routine, :func:`_stages`, computes the stages of any explicit
+Runge-Kutta tableau for any right-hand side passed to it as a compiled function (numba
+compiles it once per right-hand side): the train's (:func:`_train_rhs`) in :func:`run`
+and :func:`run_adaptive`, the gear rig's in :mod:`ltdsim.gear`. :func:`_advance` ends a
+fixed step (``run`` and the rig); the adaptive kernel forms the bs23 solution and error
+from the tableau's ``b`` and ``e`` weights, its three stages written out in one pass
+over the state each (fewer instructions than a pass per stage). Both train kernels
+sample the controller on one clock, :func:`_sample_due`.
+
 Compiling. The small helpers are inlined by numba into their callers
-(``inline="always"``). The large ones (:func:`rhs`, :func:`~ltdsim.coupler_models._gear`, :func:`_record`,
-:func:`_controller`, :func:`_brake_commands`) are compiled once each and inlined by
-LLVM instead (``forceinline=True``): numba's own inlining copies and types a function's
-whole body again at every call site, and with the right-hand side then called from
-three places in :func:`run` and four in :func:`run_adaptive` their first compile took
-about 140 s and 200 s of CPU (now about 17 s each, and the second shares most of the
-first). Both kernels take their Runge-Kutta stages from one routine, :func:`_stages`,
-and sample the controller on one clock, :func:`_sample_due`.
-The compiled kernels hold no calls to these functions: the machine code does the same
-work as before. No argument of these functions may be a constant at a call site either:
-numba compiles a function once per set of argument types, and a constant such as ``0``
-or ``True`` is a type of its own (hence the stage slices ``K[s * ny:(s + 1) * ny]``
-rather than an offset ``0``).
+(``inline="always"``). The large ones (:func:`rhs` and its subsystems,
+:func:`~ltdsim.coupler_models._gear`, :func:`_record`, :func:`_controller`,
+:func:`_brake_commands`, :func:`_stages` and the right-hand sides it is given) are compiled once each and inlined by LLVM instead
+(``forceinline=True``; the subsystems inlined by numba ran 2.4 % more instructions in
+the fixed-step kernel): numba's own inlining copies and types a function's whole body
+again at every call site, and with the right-hand side then called from three places in
+:func:`run` and four in :func:`run_adaptive` their first compile took about 140 s and
+200 s of CPU (now about 17 s each, and the second shares most of the first). The
+compiled kernels hold no calls to these functions: the machine code does the same work
+as before. No argument of these functions may be a constant at a call site either: numba
+compiles a function once per set of argument types, and a constant such as ``0`` or
+``True`` is a type of its own (hence the stage slices ``K[s * ny:(s + 1) * ny]`` rather
+than an offset ``0``).
 """
 
 from __future__ import annotations
@@ -112,7 +130,7 @@ from ltdsim.physics.brakes import (
     brake_retardation,
     karwatzki,
 )
-from ltdsim.physics.control import pid_step
+from ltdsim.physics.control import PID_STATE, pid_step
 from ltdsim.physics.resistance import (
     curve_resistance,
     davis_force,
@@ -186,7 +204,7 @@ class Controller(NamedTuple):
     """What the driver has done so far; updated in place, carried between calls."""
 
     state: np.ndarray  # one CONTROLLER record
-    pid: np.ndarray  # (2,) PID integrator and derivative-filter states
+    pid: np.ndarray  # one PID_STATE record (physics.control): integrator, filter states
     events: np.ndarray  # (MAX_EVENTS, 2) brake commands issued, EV_* columns
 
 
@@ -203,7 +221,8 @@ class FixedStep(NamedTuple):
 
 class Adaptive(NamedTuple):
     """An embedded Runge-Kutta pair under error control (bs23,
-    :data:`ltdsim.integrators.BS23`) and the run's record grid."""
+    :data:`ltdsim.integrators.BS23`) and the run's record grid. :func:`run_adaptive`
+    writes the pair's sums out for its three stages."""
 
     out_dt: float  # time between records, s
     n_rec: int  # records of the whole run
@@ -267,7 +286,8 @@ def make_driver(low) -> Driver:
 def make_controller(events: np.ndarray) -> Controller:
     """A controller that has done nothing yet, issuing its brake commands into
     ``events`` (``(max commands, 2)``, ``EV_*`` columns)."""
-    return Controller(state=np.zeros(1, dtype=CONTROLLER), pid=np.zeros(2), events=events)
+    return Controller(state=np.zeros(1, dtype=CONTROLLER), pid=np.zeros(1, dtype=PID_STATE),
+                      events=events)
 
 
 def make_stepper(h0: float) -> np.ndarray:
@@ -383,31 +403,15 @@ def brake_target(t, delay, events, n_events):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
-    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements).
-
-    ``tr``, ``cp``, ``dr``: :class:`Train`, :class:`Couplers`, :class:`Driver`;
-    ``a_dem`` the demanded acceleration held by the speed controller (m/s^2);
-    ``events[:n_events]`` the brake commands issued so far. Also fills, in the
-    :class:`Work` ``w``: ``force``/``defl`` (coupler force N, deflection m), ``res``
-    (resistance per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing
-    forward motion), ``fcons`` (force of each locomotive consist, N) and the signals
-    ``sig`` (total traction force N, traction demand before the traction-curve limits
-    N, total resistance N). ``w.hints`` holds search cursors (``[0, n)`` track, ``n``
-    driver profile, ``n + 1`` speed profile); they change only how fast a lookup is,
-    never its result.
-    """
+def _resistance(y, tr, w):
+    """Running resistance of every vehicle (N, + opposing forward motion) at state ``y``:
+    Davis terms at its speed, grade and curve resistance of the track segment under it.
+    Writes ``w.res`` and the total to ``w.sig["resistance"]``; returns the total, N."""
     veh = tr.veh
-    cons = tr.cons
-    trac = tr.trac
-    ctab = tr.tables
-    drv = dr.par
-    cpl = cp.par
     hints = w.hints
     res = w.res
-    force = w.force
     n = veh.shape[0]
-    g = trac[T_G]
+    g = tr.trac[T_G]
     rtot = 0.0
     for i in range(n):
         v = y[n + i]
@@ -420,7 +424,23 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
         r += curve_resistance(v, wm, tr.track_curv[kt], tr.curve_h, g)
         rtot += r
         res[i] = r
-    if drv[D_BFULLSUM] > 0.0:  # air brakes: each fill follows the command that has arrived
+    w.sig[0]["resistance"] = rtot
+    return rtot
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _brakes(t, y, events, n_events, tr, dr, w, dy):
+    """Air brakes at time ``t`` (s): each brake-cylinder fill (0-1) follows the latest
+    of the commands ``events[:n_events]`` to have reached its vehicle, with the apply or
+    release time constant (s); its rate (1/s) goes to ``dy``. The shoe force (N) times
+    the shoe friction gives the braking force, written to ``w.bforce`` (N, + opposing
+    forward motion) and added to ``w.res``. Nothing when the train has no air brakes."""
+    drv = dr.par
+    if drv[D_BFULLSUM] > 0.0:
+        veh = tr.veh
+        ctab = tr.tables
+        res = w.res
+        n = veh.shape[0]
         vs = drv[D_BVS]
         for i in range(n):
             zb = int(veh[i, V_BZ])
@@ -439,6 +459,28 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
                                         * shoe_friction(i, v, shoe, veh, ctab), vs)
             w.bforce[i] = fb
             res[i] += fb
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
+    """Traction and dynamic-brake force of each locomotive consist (N, + forward) at
+    time ``t`` (s), written to ``w.fcons``; the motor lags' rates (N/s) go to ``dy``.
+
+    The driver's demand by mode: speed, the held demanded acceleration ``a_dem``
+    (m/s^2) times the train's mass plus the feed-forward share of the total resistance
+    ``rtot`` (N); force, the force profile (N); notch, the held notch (0-8) as a share
+    of each consist's limit. A consist with its own notch schedule follows that. The
+    demand is shared among the consists and clipped to each one's traction curve
+    (force, power and adhesion limits, N). Writes the total applied force and the total
+    demand before the limits (N) to ``w.sig``."""
+    veh = tr.veh
+    cons = tr.cons
+    trac = tr.trac
+    ctab = tr.tables
+    drv = dr.par
+    hints = w.hints
+    n = veh.shape[0]
+    g = trac[T_G]
     mode = drv[D_MODE]
     fd = 0.0
     if mode == MODE_SPEED:
@@ -464,7 +506,8 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
         z = int(cons[c, K_Z])
         if z >= 0:  # motor and inverter lag, with the jerk limit on its rate
             f = y[z]
-            rate = (dl - f) / cons[c, K_TAU] if abs(dl - f) > 1e-6 else 0.0  # (as above)
+            # (settled within 1e-6 N: an endless decay ends in slow subnormals)
+            rate = (dl - f) / cons[c, K_TAU] if abs(dl - f) > 1e-6 else 0.0
             rmax = cons[c, K_RATE]
             if rmax > 0.0:
                 rate = min(max(rate, -rmax), rmax)
@@ -480,15 +523,37 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     sig = w.sig[0]
     sig["traction"] = ftot
     sig["demand"] = fdem
-    sig["resistance"] = rtot
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _couplers(y, tr, cp, w, dy):
+    """Force (N, + tension) and deflection (m, + draft) of every coupler at state
+    ``y``, written to ``w.force`` and ``w.defl``; the hysteretic gears' state rates go
+    to ``dy`` (:func:`coupler_force`)."""
+    cpl = cp.par
+    ctab = tr.tables
+    force = w.force
+    n = tr.veh.shape[0]
     for j in range(n - 1):
         d = y[j] - y[j + 1] + cpl[j, P_D0]
         dd = y[n + j] - y[n + j + 1]
         f = coupler_force(j, cp.model[j], d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
         force[j] = f
         w.defl[j] = d
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _force_balance(y, tr, w, dy):
+    """Newton's second law for every vehicle: its share of its consist's force, minus
+    its resistance and brake force, plus the coupler forces from its neighbours (all N)
+    over its mass gives its acceleration (m/s^2), written to ``dy[n:2n]``; its speed
+    (m/s) is its displacement's rate, ``dy[0:n]``."""
+    veh = tr.veh
     inv_m = tr.inv_m
     fcons = w.fcons
+    res = w.res
+    force = w.force
+    n = veh.shape[0]
     for i in range(n):
         # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
         f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
@@ -498,6 +563,29 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
             f += force[i - 1]
         dy[i] = y[n + i]
         dy[n + i] = f * inv_m[i]
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
+    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements):
+    resistance, brakes, traction, couplers, force balance, in that order.
+
+    ``tr``, ``cp``, ``dr``: :class:`Train`, :class:`Couplers`, :class:`Driver`;
+    ``a_dem`` the demanded acceleration held by the speed controller (m/s^2);
+    ``events[:n_events]`` the brake commands issued so far. Also fills, in the
+    :class:`Work` ``w``: ``force``/``defl`` (coupler force N, deflection m), ``res``
+    (resistance per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing
+    forward motion), ``fcons`` (force of each locomotive consist, N) and the signals
+    ``sig`` (total traction force N, traction demand before the traction-curve limits
+    N, total resistance N). ``w.hints`` holds search cursors (``[0, n)`` track, ``n``
+    driver profile, ``n + 1`` speed profile); they change only how fast a lookup is,
+    never its result.
+    """
+    rtot = _resistance(y, tr, w)
+    _brakes(t, y, events, n_events, tr, dr, w, dy)
+    _traction(t, y, a_dem, rtot, tr, dr, w, dy)
+    _couplers(y, tr, cp, w, dy)
+    _force_balance(y, tr, w, dy)
 
 
 @njit(cache=True, inline="always")
@@ -622,13 +710,14 @@ def _sample_due(t, st, ts, tol):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _stages(t, y, h, A, C, ns, a_dem, n_events, tr, cp, dr, events, w):
+def _stages(f, p, t, y, h, A, C, ns, K, ytmp):
     """Stages 2 to ``ns`` of an explicit Runge-Kutta step of size ``h`` (s) from
-    ``(t, y)``, given stage 1 at ``w.K[0:ny]``: stage s is the right-hand side at
-    ``t + C[s] h`` and ``y + h sum_j A[s, j] K_j``, written to ``w.K[s * ny:(s + 1) *
-    ny]``. The one stage routine of :func:`run` and :func:`run_adaptive`."""
-    K = w.K
-    ytmp = w.ytmp
+    ``(t, y)`` of the right-hand side ``f(t, y, dy, p)`` (a compiled function writing
+    ``dy/dt`` to ``dy``; ``p`` its other arguments, one tuple), given stage 1 at
+    ``K[0:ny]``: stage s is ``f`` at ``t + C[s] h`` and ``y + h sum_j A[s, j] K_j``,
+    written to ``K[s * ny:(s + 1) * ny]``; ``ytmp`` (``ny`` elements) holds the stage
+    state. The one stage routine of :func:`run`, :func:`run_adaptive` and the gear rig
+    (:mod:`ltdsim.gear`)."""
     ny = y.shape[0]
     for s in range(1, ns):
         # (loops over the state innermost, one pass per nonzero coefficient: vectorised)
@@ -647,8 +736,36 @@ def _stages(t, y, h, A, C, ns, a_dem, n_events, tr, cp, dr, events, w):
         if first:
             for q in range(ny):
                 ytmp[q] = y[q]
-        rhs(t + C[s] * h, ytmp, a_dem, n_events, tr, cp, dr, events, w,
-            K[s * ny:(s + 1) * ny])
+        f(t + C[s] * h, ytmp, K[s * ny:(s + 1) * ny], p)
+
+
+@njit(cache=True, inline="always")
+def _advance(y, h, B, ns, K, inc):
+    """End of a Runge-Kutta step of size ``h`` (s): ``y += h sum_s B[s] K_s`` over the
+    ``ns`` stages at ``K[s * ny:(s + 1) * ny]``, the increment summed first (in ``inc``,
+    ``ny`` elements) for accuracy. Returns the sum of the new state's elements, finite
+    exactly when every element is. The step's end for :func:`run` and the gear rig."""
+    ny = y.shape[0]
+    for q in range(ny):
+        inc[q] = 0.0
+    for s in range(ns):
+        wt = h * B[s]
+        o = s * ny
+        for q in range(ny):
+            inc[q] += wt * K[o + q]
+    total = 0.0
+    for q in range(ny):
+        y[q] += inc[q]
+        total += y[q]
+    return total
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _train_rhs(t, y, dy, p):
+    """:func:`rhs` in the form :func:`_stages` calls: ``p = (a_dem, n_events, tr, cp,
+    dr, events, w)``, its arguments after ``y``."""
+    a_dem, n_events, tr, cp, dr, events, w = p
+    rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -662,7 +779,7 @@ def _controller(t, y, ctl, tr, dr, w):
     trac = tr.trac
     n = tr.veh.shape[0]
     st = ctl.state[0]
-    pid = ctl.pid
+    pid = ctl.pid[0]
     ts = drv[D_TS]
     vref = _interp(dr.prof_t, dr.prof_y, t, w.hints, n + 1)
     e = vref - y[n + int(trac[T_REF])]
@@ -675,7 +792,7 @@ def _controller(t, y, ctl, tr, dr, w):
         saturated = (abs(sig["demand"]) > abs(sig["traction"]) * (1.0 + 1e-9)
                      and sig["demand"] * e > 0.0)
         if clipped or saturated:
-            pid[0] -= ts * e  # the integrator state (physics.control.pid_step)
+            pid["integrator"] -= ts * e
     st["a_dem"] = uc
     st["v_ref"] = vref
 
@@ -731,19 +848,9 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         if c_rec == 0:
             _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
                     out)
-        _stages(t, y, dt, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
-        # y += dt * sum_s b_s K_s, increment summed first for accuracy
-        for q in range(ny):
-            ytmp[q] = 0.0
-        for s in range(ns):
-            wt = dt * B[s]
-            o = s * ny
-            for q in range(ny):
-                ytmp[q] += wt * K[o + q]
-        total = 0.0
-        for q in range(ny):
-            y[q] += ytmp[q]
-            total += y[q]
+        _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
+                ytmp)
+        total = _advance(y, dt, B, ns, K, ytmp)
         if not (total - total == 0.0):
             return NONFINITE, k + 1
         c_rec += 1
@@ -846,17 +953,16 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             h_try = t_next - t
             hit = True
         # ---- one step of the embedded pair: its stages, the solution kept, the error
-        _stages(t, y, h_try, A, C, ns, a_dem, n_ev, tr, cp, dr, ctl.events, w)
-        # (sums over the stages built one pass per stage, the state innermost: vectorised)
-        for q in range(ny):
-            ynew[q] = B[0] * K[q]
-        for s in range(1, ns):
-            o = s * ny
-            for q in range(ny):
-                ynew[q] += B[s] * K[o + q]
+        _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, h_try, A, C, ns,
+                K, w.ytmp)
+        # (the pair's three stages written out: one pass over the state for the solution
+        # and one for the error, the same sums in the same order. The heavy-haul train
+        # over 20 s runs 6 % fewer instructions in all than with a pass per stage, and
+        # a loop over the stages inside the loop over the state runs 35 % more)
+        b0, b1, b2 = B[0], B[1], B[2]
         total = 0.0
         for q in range(ny):
-            ynew[q] = y[q] + h_try * ynew[q]
+            ynew[q] = y[q] + h_try * (b0 * K[q] + b1 * K[ny + q] + b2 * K[2 * ny + q])
             total += ynew[q]
         t_new = t_next if hit else t + h_try
         err = np.inf
@@ -864,16 +970,11 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             # the right-hand side at the step's end: the error's last stage, and the next
             # step's first if the step is accepted (first same as last)
             rhs(t_new, ynew, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[ns * ny:(ns + 1) * ny])
-            est = w.ytmp  # free once the stages are done
-            for q in range(ny):
-                est[q] = E[0] * K[q]
-            for s in range(1, ns + 1):
-                o = s * ny
-                for q in range(ny):
-                    est[q] += E[s] * K[o + q]
+            e0, e1, e2, e3 = E[0], E[1], E[2], E[3]
             err = 0.0
             for q in range(ny):
-                e = h_try * est[q]
+                e = h_try * (e0 * K[q] + e1 * K[ny + q] + e2 * K[2 * ny + q]
+                             + e3 * K[3 * ny + q])
                 sc = atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q]))
                 e = abs(e) / sc
                 if e > err:

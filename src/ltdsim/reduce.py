@@ -100,7 +100,7 @@ class RigObjective:
         # search bounds wider than the scenario's ranges still evaluate)
         c = SimplifiedCoupler.model_construct(
             slack=self.slack, **dict(zip(PARAMETERS, (float(v) for v in values))))
-        model, cpl, ctab = _lowered_gear(c, self.dt)
+        model, cpl, ctab = _lowered_gear(c)
         return integrate_rig(model, cpl, ctab, MODE_FORCE, self.t, self.force_in,
                              self.force_in, self.mass, self.t[-1] - self.t[0], self.dt,
                              self.method).force

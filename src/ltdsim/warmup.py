@@ -89,7 +89,7 @@ def gear_rig_kernel() -> KernelCall:
 
     any_gear = CouplerParams(model="simplified", slack=0.0, damping=1.0, k1=1.0, k2=1.0,
                              k3=1.0, v_c=1.0)
-    model, cpl, ctab = _lowered_gear(any_gear, 1e-4)
+    model, cpl, ctab = _lowered_gear(any_gear)
     t = np.array([0.0, 1e-4])
     return KernelCall("gear rig", _rig, rig_args(model, cpl, ctab, MODE_DEFLECTION, t, t * 0.0,
                                                  t * 0.0, 1.0, 0.0, 1e-4, "ode3"))

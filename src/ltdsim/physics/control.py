@@ -19,9 +19,15 @@ BACKWARD_EULER = 1
 METHODS = {"forward_euler": FORWARD_EULER, "backward_euler": BACKWARD_EULER}
 
 
-def pid_init() -> np.ndarray:
-    """Zero controller state ``[integrator state, derivative-filter state]``."""
-    return np.zeros(2)
+#: the PID's state between samples (one numpy record): integrator state (the integral
+#: of the speed error, m) and derivative-filter state (m/s)
+PID_STATE = np.dtype([("integrator", np.float64), ("filter", np.float64)])
+
+
+def pid_init() -> np.void:
+    """Zero controller state: one ``PID_STATE`` record (a view into an array of one,
+    updated in place by :func:`pid_step`)."""
+    return np.zeros(1, dtype=PID_STATE)[0]
 
 
 @njit(cache=True, inline="always")
@@ -32,9 +38,9 @@ def pid_step(error, state, kp, ki, kd, n, ts, integrator, filt):
     ----------
     error : float
         Controller input at this sample (speed error ``v_ref - v``, m/s).
-    state : ndarray, shape (>= 2,)
-        ``state[0]`` integrator state, ``state[1]`` filter state; updated in place
-        (further elements are left alone).
+    state : numpy record of ``PID_STATE``
+        Integrator and derivative-filter states (``state["integrator"]``,
+        ``state["filter"]``); updated in place.
     kp, ki, kd : float
         Proportional (1/s), integral (1/s^2) and derivative (-) gains for a speed
         error in m/s and an output in m/s^2.
@@ -53,15 +59,15 @@ def pid_step(error, state, kp, ki, kd, n, ts, integrator, filt):
     """
     # integral term: I * F_i(z) e
     if integrator == 0:
-        y_i = state[0]
-        state[0] = state[0] + ts * error
+        y_i = state["integrator"]
+        state["integrator"] = state["integrator"] + ts * error
     else:
-        state[0] = state[0] + ts * error
-        y_i = state[0]
+        state["integrator"] = state["integrator"] + ts * error
+        y_i = state["integrator"]
     # filtered derivative: u_d = N (D e - f), f = F_d(z) u_d
     if filt == 0:
-        u_d = n * (kd * error - state[1])
+        u_d = n * (kd * error - state["filter"])
     else:
-        u_d = n * (kd * error - state[1]) / (1.0 + n * ts)
-    state[1] = state[1] + ts * u_d
+        u_d = n * (kd * error - state["filter"]) / (1.0 + n * ts)
+    state["filter"] = state["filter"] + ts * u_d
     return kp * error + ki * y_i + u_d
