@@ -186,9 +186,9 @@ def test_a_key_of_another_model_is_refused_in_one_line(model, foreign, value, ow
 
 def test_an_unknown_model_is_refused_with_the_models_listed():
     with pytest.raises(ScenarioError) as err:
-        build(train_dict([8e4, 9e4], coupler={"model": "polymer", "k1": 1.0}))
+        build(train_dict([8e4, 9e4], coupler={"model": "hydraulic", "k1": 1.0}))
     msg = str(err.value)
-    assert "couplers.default.model" in msg and "'table'" in msg and '"polymer"' in msg
+    assert "couplers.default.model" in msg and "'table'" in msg and '"hydraulic"' in msg
 
 
 def _with_override(override):
