@@ -742,10 +742,25 @@ def _stages(f, p, t, y, h, A, C, ns, K, ytmp):
 @njit(cache=True, inline="always")
 def _advance(y, h, B, ns, K, inc):
     """End of a Runge-Kutta step of size ``h`` (s): ``y += h sum_s B[s] K_s`` over the
-    ``ns`` stages at ``K[s * ny:(s + 1) * ny]``, the increment summed first (in ``inc``,
-    ``ny`` elements) for accuracy. Returns the sum of the new state's elements, finite
-    exactly when every element is. The step's end for :func:`run` and the gear rig."""
+    ``ns`` stages at ``K[s * ny:(s + 1) * ny]``, the increment summed first (from 0, in
+    stage order) for accuracy. The step's end for :func:`run` and the gear rig.
+
+    Three and four stages (ode3, rk4) are written out, one pass over the state; other
+    methods sum in ``inc`` (``ny`` elements), a pass per stage. Both forms add the same
+    terms in the same order (the leading ``0.0 +`` included), so the result does not
+    depend on the form."""
     ny = y.shape[0]
+    if ns == 3:
+        w0, w1, w2 = h * B[0], h * B[1], h * B[2]
+        for q in range(ny):
+            y[q] += ((0.0 + w0 * K[q]) + w1 * K[ny + q]) + w2 * K[2 * ny + q]
+        return
+    if ns == 4:
+        w0, w1, w2, w3 = h * B[0], h * B[1], h * B[2], h * B[3]
+        for q in range(ny):
+            y[q] += (((0.0 + w0 * K[q]) + w1 * K[ny + q]) + w2 * K[2 * ny + q]) \
+                + w3 * K[3 * ny + q]
+        return
     for q in range(ny):
         inc[q] = 0.0
     for s in range(ns):
@@ -753,11 +768,19 @@ def _advance(y, h, B, ns, K, inc):
         o = s * ny
         for q in range(ny):
             inc[q] += wt * K[o + q]
-    total = 0.0
     for q in range(ny):
         y[q] += inc[q]
+
+
+@njit(cache=True, inline="always")
+def _finite(y):
+    """True when every element of ``y`` is finite (their sum is; a sum overflowing to
+    inf counts as not finite). A state that is not finite stays so: every later step
+    adds to it, so checking now and then finds it at the next check."""
+    total = 0.0
+    for q in range(y.shape[0]):
         total += y[q]
-    return total
+    return total - total == 0.0
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -809,8 +832,10 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     and ``ctl`` are updated in place so a run can be split into chunks; ``out.peaks``
     holds the peak coupler forces over every step.
 
-    Returns ``(status, k)``: ``OK`` and ``k_stop``; ``NONFINITE`` and the step whose
-    result was not finite (``y`` then holds that state); ``EVENTS_FULL`` and the step.
+    Returns ``(status, k)``: ``OK`` and ``k_stop``; ``NONFINITE`` and the first
+    checked step whose state is not finite (``y`` then holds that state; the state is
+    checked at every record step and at ``k_stop``, so it became non-finite after the
+    last record step before ``k``); ``EVENTS_FULL`` and the step.
     """
     A = fs.A
     B = fs.b
@@ -834,6 +859,10 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     c_rec = k_start % record_every
     for k in range(k_start, k_stop):
         t = k * dt
+        # non-finite values persist, so the state is checked only where it is recorded
+        # (and at the chunk's end), not after every step
+        if c_rec == 0 and not _finite(y):
+            return NONFINITE, k
         sampled = speed_mode and _sample_due(t, st, ts, half)
         if sampled:
             _controller(t, y, ctl, tr, dr, w)
@@ -850,12 +879,12 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
                     out)
         _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
                 ytmp)
-        total = _advance(y, dt, B, ns, K, ytmp)
-        if not (total - total == 0.0):
-            return NONFINITE, k + 1
+        _advance(y, dt, B, ns, K, ytmp)
         c_rec += 1
         if c_rec == record_every:
             c_rec = 0
+    if not _finite(y):
+        return NONFINITE, k_stop
     if k_stop == fs.n_steps:
         t = k_stop * dt
         rhs(t, y, st["a_dem"], st["n_events"], tr, cp, dr, ctl.events, w, K[0:ny])
