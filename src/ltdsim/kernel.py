@@ -64,7 +64,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ltdsim.coupler_models import P_D0, coupler_force
+from ltdsim.coupler_models import M_SIMPLIFIED, P_D0, coupler_force
 from ltdsim.layout import (
     D_BCTRL,
     D_BFULLSUM,
@@ -190,6 +190,7 @@ class Couplers(NamedTuple):
 
     model: np.ndarray  # (n - 1,) int64 model codes (ltdsim.coupler_models.MODEL_NAMES)
     par: np.ndarray  # (n - 1, N_CCOL) parameters (columns: ltdsim.coupler_models)
+    uniform: int  # the model code every coupler has, -1 for a mix (see uniform_model)
 
 
 class Driver(NamedTuple):
@@ -275,7 +276,15 @@ def make_train(low) -> Train:
 
 def make_couplers(low) -> Couplers:
     """:class:`Couplers` of a :class:`~ltdsim.lowering.Lowered` scenario."""
-    return Couplers(model=low.cpl_model, par=low.cpl)
+    return Couplers(model=low.cpl_model, par=low.cpl, uniform=uniform_model(low.cpl_model))
+
+
+def uniform_model(model: np.ndarray) -> int:
+    """The model code that every coupler of ``model`` (int64 codes) has, or -1 when
+    they differ or there is none (:class:`Couplers`' ``uniform``)."""
+    if model.shape[0] == 0 or not (model == model[0]).all():
+        return -1
+    return int(model[0])
 
 
 def make_driver(low) -> Driver:
@@ -525,21 +534,35 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
     sig["demand"] = fdem
 
 
+@njit(cache=True, inline="always")
+def _coupler(j, model, y, n, cpl, ctab, w, dy):
+    """Force (N, + tension) and deflection (m, + draft) of coupler ``j`` of model code
+    ``model`` into ``w.force[j]`` and ``w.defl[j]`` (see :func:`_couplers`)."""
+    d = y[j] - y[j + 1] + cpl[j, P_D0]
+    dd = y[n + j] - y[n + j + 1]
+    w.force[j] = coupler_force(j, model, d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
+    w.defl[j] = d
+
+
 @njit(cache=True, _nrt=False, forceinline=True)
 def _couplers(y, tr, cp, w, dy):
     """Force (N, + tension) and deflection (m, + draft) of every coupler at state
     ``y``, written to ``w.force`` and ``w.defl``; the hysteretic gears' state rates go
-    to ``dy`` (:func:`coupler_force`)."""
+    to ``dy`` (:func:`coupler_force`).
+
+    A train whose couplers all share the simplified model (``cp.uniform``) runs a loop
+    of its own, in which the compiler knows the model and drops the dispatch; the
+    arithmetic is the same."""
     cpl = cp.par
     ctab = tr.tables
-    force = w.force
     n = tr.veh.shape[0]
-    for j in range(n - 1):
-        d = y[j] - y[j + 1] + cpl[j, P_D0]
-        dd = y[n + j] - y[n + j + 1]
-        f = coupler_force(j, cp.model[j], d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
-        force[j] = f
-        w.defl[j] = d
+    u = cp.uniform
+    if u == M_SIMPLIFIED:
+        for j in range(n - 1):
+            _coupler(j, u, y, n, cpl, ctab, w, dy)
+    else:
+        for j in range(n - 1):
+            _coupler(j, cp.model[j], y, n, cpl, ctab, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
