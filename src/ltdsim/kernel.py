@@ -41,6 +41,19 @@ from the tableau's ``b`` and ``e`` weights, its three stages written out in one 
 over the state each (fewer instructions than a pass per stage). Both train kernels
 sample the controller on one clock, :func:`_sample_due`.
 
+Per-step work. The fixed-step kernel checks the state for non-finite values at record
+steps and at the end of each call, not after every step: such values persist (every
+later step adds to them), so the next check finds them, and the error names the
+interval between the last good check and the failing one. :func:`_advance` writes the
+step's end out for three and four stages (ode3, rk4), one pass over the state. Couplers
+that all share the simplified model (``Couplers.uniform``) run a loop of their own, in
+which the compiler knows the model and drops the dispatch and the gear code. Each was
+kept because it cut the instructions per step of the force-mode base train
+(benchmarks/bench_reference_instructions.py, against the hand-written kernel of
+benchmarks/_reference_kernel.py) with every result bit unchanged; a branch-free or
+pre-checked peak tracking and a force balance in separate vectorisable passes measured
+worse and were left out.
+
 Compiling. The small helpers are inlined by numba into their callers
 (``inline="always"``). The large ones (:func:`rhs` and its subsystems,
 :func:`~ltdsim.coupler_models._gear`, :func:`_record`, :func:`_controller`,
