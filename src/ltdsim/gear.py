@@ -155,7 +155,8 @@ def rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, metho
     ny = Y_GEAR + N_GEAR_STATES
     y = np.zeros(ny)
     y[Y_GEAR] = f0
-    rig = Rig(couplers=Couplers(model=np.array([model], dtype=np.int64), par=cpl),
+    rig = Rig(couplers=Couplers(model=np.array([model], dtype=np.int64), par=cpl,
+                                uniform=int(model)),
               tables=ctab, mode=int(mode), mass=float(mass),
               t=np.ascontiguousarray(t_tab, dtype=float),
               a=np.ascontiguousarray(a_tab, dtype=float),

@@ -41,6 +41,19 @@ from the tableau's ``b`` and ``e`` weights, its three stages written out in one 
 over the state each (fewer instructions than a pass per stage). Both train kernels
 sample the controller on one clock, :func:`_sample_due`.
 
+Per-step work. The fixed-step kernel checks the state for non-finite values at record
+steps and at the end of each call, not after every step: such values persist (every
+later step adds to them), so the next check finds them, and the error names the
+interval between the last good check and the failing one. :func:`_advance` writes the
+step's end out for three and four stages (ode3, rk4), one pass over the state. Couplers
+that all share the simplified model (``Couplers.uniform``) run a loop of their own, in
+which the compiler knows the model and drops the dispatch and the gear code. Each was
+kept because it cut the instructions per step of the force-mode base train
+(benchmarks/bench_reference_instructions.py, against the hand-written kernel of
+benchmarks/_reference_kernel.py) with every result bit unchanged; a branch-free or
+pre-checked peak tracking and a force balance in separate vectorisable passes measured
+worse and were left out.
+
 Compiling. The small helpers are inlined by numba into their callers
 (``inline="always"``). The large ones (:func:`rhs` and its subsystems,
 :func:`~ltdsim.coupler_models._gear`, :func:`_record`, :func:`_controller`,
@@ -64,7 +77,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ltdsim.coupler_models import P_D0, coupler_force
+from ltdsim.coupler_models import M_SIMPLIFIED, P_D0, coupler_force
 from ltdsim.layout import (
     D_BCTRL,
     D_BFULLSUM,
@@ -190,6 +203,7 @@ class Couplers(NamedTuple):
 
     model: np.ndarray  # (n - 1,) int64 model codes (ltdsim.coupler_models.MODEL_NAMES)
     par: np.ndarray  # (n - 1, N_CCOL) parameters (columns: ltdsim.coupler_models)
+    uniform: int  # the model code every coupler has, -1 for a mix (see uniform_model)
 
 
 class Driver(NamedTuple):
@@ -275,7 +289,15 @@ def make_train(low) -> Train:
 
 def make_couplers(low) -> Couplers:
     """:class:`Couplers` of a :class:`~ltdsim.lowering.Lowered` scenario."""
-    return Couplers(model=low.cpl_model, par=low.cpl)
+    return Couplers(model=low.cpl_model, par=low.cpl, uniform=uniform_model(low.cpl_model))
+
+
+def uniform_model(model: np.ndarray) -> int:
+    """The model code that every coupler of ``model`` (int64 codes) has, or -1 when
+    they differ or there is none (:class:`Couplers`' ``uniform``)."""
+    if model.shape[0] == 0 or not (model == model[0]).all():
+        return -1
+    return int(model[0])
 
 
 def make_driver(low) -> Driver:
@@ -525,21 +547,35 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
     sig["demand"] = fdem
 
 
+@njit(cache=True, inline="always")
+def _coupler(j, model, y, n, cpl, ctab, w, dy):
+    """Force (N, + tension) and deflection (m, + draft) of coupler ``j`` of model code
+    ``model`` into ``w.force[j]`` and ``w.defl[j]`` (see :func:`_couplers`)."""
+    d = y[j] - y[j + 1] + cpl[j, P_D0]
+    dd = y[n + j] - y[n + j + 1]
+    w.force[j] = coupler_force(j, model, d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
+    w.defl[j] = d
+
+
 @njit(cache=True, _nrt=False, forceinline=True)
 def _couplers(y, tr, cp, w, dy):
     """Force (N, + tension) and deflection (m, + draft) of every coupler at state
     ``y``, written to ``w.force`` and ``w.defl``; the hysteretic gears' state rates go
-    to ``dy`` (:func:`coupler_force`)."""
+    to ``dy`` (:func:`coupler_force`).
+
+    A train whose couplers all share the simplified model (``cp.uniform``) runs a loop
+    of its own, in which the compiler knows the model and drops the dispatch; the
+    arithmetic is the same."""
     cpl = cp.par
     ctab = tr.tables
-    force = w.force
     n = tr.veh.shape[0]
-    for j in range(n - 1):
-        d = y[j] - y[j + 1] + cpl[j, P_D0]
-        dd = y[n + j] - y[n + j + 1]
-        f = coupler_force(j, cp.model[j], d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
-        force[j] = f
-        w.defl[j] = d
+    u = cp.uniform
+    if u == M_SIMPLIFIED:
+        for j in range(n - 1):
+            _coupler(j, u, y, n, cpl, ctab, w, dy)
+    else:
+        for j in range(n - 1):
+            _coupler(j, cp.model[j], y, n, cpl, ctab, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -742,10 +778,25 @@ def _stages(f, p, t, y, h, A, C, ns, K, ytmp):
 @njit(cache=True, inline="always")
 def _advance(y, h, B, ns, K, inc):
     """End of a Runge-Kutta step of size ``h`` (s): ``y += h sum_s B[s] K_s`` over the
-    ``ns`` stages at ``K[s * ny:(s + 1) * ny]``, the increment summed first (in ``inc``,
-    ``ny`` elements) for accuracy. Returns the sum of the new state's elements, finite
-    exactly when every element is. The step's end for :func:`run` and the gear rig."""
+    ``ns`` stages at ``K[s * ny:(s + 1) * ny]``, the increment summed first (from 0, in
+    stage order) for accuracy. The step's end for :func:`run` and the gear rig.
+
+    Three and four stages (ode3, rk4) are written out, one pass over the state; other
+    methods sum in ``inc`` (``ny`` elements), a pass per stage. Both forms add the same
+    terms in the same order (the leading ``0.0 +`` included), so the result does not
+    depend on the form."""
     ny = y.shape[0]
+    if ns == 3:
+        w0, w1, w2 = h * B[0], h * B[1], h * B[2]
+        for q in range(ny):
+            y[q] += ((0.0 + w0 * K[q]) + w1 * K[ny + q]) + w2 * K[2 * ny + q]
+        return
+    if ns == 4:
+        w0, w1, w2, w3 = h * B[0], h * B[1], h * B[2], h * B[3]
+        for q in range(ny):
+            y[q] += (((0.0 + w0 * K[q]) + w1 * K[ny + q]) + w2 * K[2 * ny + q]) \
+                + w3 * K[3 * ny + q]
+        return
     for q in range(ny):
         inc[q] = 0.0
     for s in range(ns):
@@ -753,11 +804,19 @@ def _advance(y, h, B, ns, K, inc):
         o = s * ny
         for q in range(ny):
             inc[q] += wt * K[o + q]
-    total = 0.0
     for q in range(ny):
         y[q] += inc[q]
+
+
+@njit(cache=True, inline="always")
+def _finite(y):
+    """True when every element of ``y`` is finite (their sum is; a sum overflowing to
+    inf counts as not finite). A state that is not finite stays so: every later step
+    adds to it, so checking now and then finds it at the next check."""
+    total = 0.0
+    for q in range(y.shape[0]):
         total += y[q]
-    return total
+    return total - total == 0.0
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -809,8 +868,10 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     and ``ctl`` are updated in place so a run can be split into chunks; ``out.peaks``
     holds the peak coupler forces over every step.
 
-    Returns ``(status, k)``: ``OK`` and ``k_stop``; ``NONFINITE`` and the step whose
-    result was not finite (``y`` then holds that state); ``EVENTS_FULL`` and the step.
+    Returns ``(status, k)``: ``OK`` and ``k_stop``; ``NONFINITE`` and the first
+    checked step whose state is not finite (``y`` then holds that state; the state is
+    checked at every record step and at ``k_stop``, so it became non-finite after the
+    last record step before ``k``); ``EVENTS_FULL`` and the step.
     """
     A = fs.A
     B = fs.b
@@ -834,6 +895,10 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     c_rec = k_start % record_every
     for k in range(k_start, k_stop):
         t = k * dt
+        # non-finite values persist, so the state is checked only where it is recorded
+        # (and at the chunk's end), not after every step
+        if c_rec == 0 and not _finite(y):
+            return NONFINITE, k
         sampled = speed_mode and _sample_due(t, st, ts, half)
         if sampled:
             _controller(t, y, ctl, tr, dr, w)
@@ -850,12 +915,12 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
                     out)
         _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
                 ytmp)
-        total = _advance(y, dt, B, ns, K, ytmp)
-        if not (total - total == 0.0):
-            return NONFINITE, k + 1
+        _advance(y, dt, B, ns, K, ytmp)
         c_rec += 1
         if c_rec == record_every:
             c_rec = 0
+    if not _finite(y):
+        return NONFINITE, k_stop
     if k_stop == fs.n_steps:
         t = k_stop * dt
         rhs(t, y, st["a_dem"], st["n_events"], tr, cp, dr, ctl.events, w, K[0:ny])

@@ -102,7 +102,7 @@ class Solver(_Strict):
     stability_check: bool = Field(
         True, description="refuse a fixed step above the method's largest stable step for "
                           "the train (ltdsim.stability); false runs it anyway (the run stops "
-                          "at the first non-finite state)")
+                          "at the first record with a non-finite state)")
 
     @property
     def adaptive(self) -> bool:

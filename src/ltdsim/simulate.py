@@ -293,8 +293,11 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) 
         parts = [f"bs23 found no finite step beyond t = {t:.6g} s (step size fell below "
                  "1e-12 s)"]
     else:
-        parts = [f"simulation state became non-finite at t = {t:.6g} s "
-                 f"(step {round(t / low.dt)})"]
+        # (the kernel checks the state at record steps: it was finite at the one before)
+        k = round(t / low.dt)
+        k0 = max(((k - 1) // low.record_every) * low.record_every, 0)
+        parts = [f"simulation state became non-finite between t = {k0 * low.dt:.6g} s and "
+                 f"t = {t:.6g} s (steps {k0} to {k}; the state is checked at every record)"]
     if i is not None:
         parts.append(f"vehicle {i + 1} ({scenario.vehicles[i].name!r}; 1 = lead): "
                      f"displacement = {x[i]:.6g} m, velocity = {v[i]:.6g} m/s")
