@@ -470,6 +470,8 @@ class PolymerGear(_HystereticGear):
 COUPLER_CLASSES: dict[str, type[_CouplerBase]] = {
     "linear": LinearCoupler, "simplified": SimplifiedCoupler,
     "friction_wedge": FrictionWedgeGear, "table": TableGear, "polymer": PolymerGear}
+
+
 class _UnknownCoupler(_Strict):
     """Stand-in member of the coupler union for an unknown ``model``: its only check
     refuses the name, listing the models (as a Literal does)."""
