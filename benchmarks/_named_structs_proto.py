@@ -13,35 +13,14 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from ltdsim.kernel import _interp, _segment  # the engine's own look-ups
+
 # ----------------------------------------------------------------- shared pieces
 D0, SLACK, K1, K3, DAMP = range(5)  # coupler columns
 MASS, DA, DB, DC, P0 = range(5)  # vehicle columns
 T_MTOT, T_FMAX, T_REF, T_G = range(4)  # train scalars
 C_PI, C_ADEM, C_VREF = range(3)  # controller slots (positional version)
 N_SIG = 3
-
-
-@njit(cache=True, inline="always")
-def _segment(xs, x, hint):
-    k = hint
-    m = xs.shape[0]
-    while k + 1 < m and xs[k + 1] <= x:
-        k += 1
-    while k > 0 and xs[k] > x:
-        k -= 1
-    return k
-
-
-@njit(cache=True, inline="always")
-def _interp(xs, ys, x, hints, slot):
-    k = _segment(xs, x, hints[slot])
-    hints[slot] = k
-    if x <= xs[0]:
-        return ys[0]
-    if k + 1 >= xs.shape[0]:
-        return ys[k]
-    w = (x - xs[k]) / (xs[k + 1] - xs[k])
-    return ys[k] + w * (ys[k + 1] - ys[k])
 
 
 @njit(cache=True, inline="always")
