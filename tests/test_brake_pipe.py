@@ -378,26 +378,28 @@ def _jacobian(p, q, pipe_args, leaks):
     return jac
 
 
-@settings(deadline=None, max_examples=40)
-@given(lengths=GEOM, n=st.integers(1, 4), flow=st.floats(0.0, 0.3),
-       leak=st.floats(0.0, 1e-4), seed=st.integers(0, 2**31))
+@settings(deadline=None, max_examples=60)
+@given(lengths=GEOM, n=st.integers(1, 4), flow=st.floats(0.0, 0.6),
+       leak=st.floats(0.0, 2e-5), seed=st.integers(0, 2**31))
 def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed):
     """pipe_max_rate is above the largest |eigenvalue| of the numerically linearised
-    pipe (numpy) and within a factor 2 of it, for random grids, flows up to Mach 0.3
-    and leaks."""
+    pipe (numpy), for random grids, flows up to 0.6 kg/s (Mach 0.7) and leaks up to a
+    5 mm orifice per cell; and not far above: within 1.35 times at rest (Gershgorin's
+    circles on an uneven grid, leaks), within 3 times with flow (friction's and the
+    flow's shares are added as if they met in one mode)."""
     rng = np.random.default_rng(seed)
     g = pipe_geometry(lengths, n)
     nc = g.dx_cell.size
     if nc < 2:
         return
-    p = rng.uniform(3e5, 7e5, nc)
+    p = rng.uniform(1.5e5, 7e5, nc)
     q = flow * rng.uniform(-1.0, 1.0, nc - 1)
     leaks = leak * rng.random(nc)
     args = (A, g.dx_cell, g.dx_face, D, EPS, MU)
     lam = np.max(np.abs(np.linalg.eigvals(_jacobian(p, q, args, leaks))))
     bound = pipe_max_rate(p, q, *args, leaks, GAMMA, R, T, R_LIN)
     assert lam <= bound * (1 + 1e-6)
-    assert bound <= 2.0 * lam
+    assert bound <= (3.0 if flow > 0.0 else 1.35) * lam
 
 
 def test_max_rate_is_tight_on_a_uniform_pipe_at_rest():
