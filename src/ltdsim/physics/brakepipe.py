@@ -131,11 +131,23 @@ RE_TURBULENT = 4000.0
 
 
 @njit(cache=True, inline="always")
-def _haaland(re, rel_rough):
-    """Darcy friction factor of turbulent pipe flow (Haaland 1983), -, for ``re`` > 0 and
-    relative roughness ``rel_rough = eps / D`` (-)."""
-    s = -1.8 * math.log10((rel_rough / 3.7) ** 1.11 + 6.9 / re)
-    return 1.0 / (s * s)
+def _rough_term(rel_rough):
+    """Haaland's roughness term ``(eps / D / 3.7)^1.11``, -, of the relative roughness."""
+    return (rel_rough / 3.7) ** 1.11
+
+
+@njit(cache=True, inline="always")
+def _phi(re, rough_term):
+    """:func:`friction_phi` with the roughness term of :func:`_rough_term` given."""
+    if re <= RE_LAMINAR:
+        return PHI_LAMINAR
+    s = -1.8 * math.log10(rough_term + 6.9 / re)
+    turb = re / (s * s)  # Haaland's f times Re
+    if re >= RE_TURBULENT:
+        return turb
+    b = (re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR)
+    w = b * b * (3.0 - 2.0 * b)
+    return (1.0 - w) * PHI_LAMINAR + w * turb
 
 
 @njit(cache=True, inline="always")
@@ -147,14 +159,7 @@ def friction_phi(re, rel_rough):
     ``re`` above 4000, a cubic smoothstep blend between (continuous in value and slope).
     The wall friction per unit length is ``phi mu q / (2 D^2 rho)``, N/m, finite and
     linear in the flow ``q`` near zero."""
-    if re <= RE_LAMINAR:
-        return PHI_LAMINAR
-    turb = _haaland(re, rel_rough) * re
-    if re >= RE_TURBULENT:
-        return turb
-    s = (re - RE_LAMINAR) / (RE_TURBULENT - RE_LAMINAR)
-    w = s * s * (3.0 - 2.0 * s)
-    return (1.0 - w) * PHI_LAMINAR + w * turb
+    return _phi(re, _rough_term(rel_rough))
 
 
 @njit(cache=True, inline="always")
@@ -217,7 +222,7 @@ def pipe_rates(p, q, inflow, area, dx_cell, dx_face, diameter, roughness, viscos
     if nc < 2:
         return leak_total
     # momentum: pressure force, convected momentum, wall friction
-    rel_rough = roughness / diameter
+    rough = _rough_term(roughness / diameter)
     fric = viscosity / (2.0 * diameter * diameter)
     re_scale = diameter / (area * viscosity) if viscosity > 0.0 else 0.0
     qc = 0.5 * q[0]  # cell 0: its closed end and face 0
@@ -229,7 +234,7 @@ def pipe_rates(p, q, inflow, area, dx_cell, dx_face, diameter, roughness, viscos
         rate = (area * (p[j] - p[j + 1]) - (f_right - f_left)) / dx_face[j]
         if viscosity > 0.0:
             rho = 0.5 * (p[j] + p[j + 1]) / rt
-            phi = friction_phi(abs(q[j]) * re_scale, rel_rough)
+            phi = _phi(abs(q[j]) * re_scale, rough)
             rate -= phi * fric * q[j] / rho
         dq[j] = rate
         f_left = f_right
