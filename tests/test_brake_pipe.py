@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 
 from ltdsim.physics.brakepipe import (
+    air_viscosity,
     friction_factor,
     friction_phi,
     pipe_geometry,
@@ -27,7 +28,7 @@ from ltdsim.physics.pneumatics import orifice_flow
 
 GAMMA, R, T, PATM, R_LIN = 1.4, 287.05, 293.15, 101325.0, 0.995
 C = math.sqrt(R * T)  # isothermal speed of sound, m/s (290.1)
-MU = 1.81e-5  # dynamic viscosity of air at 20 C, Pa s
+MU = 1.81e-5  # dynamic viscosity of air at 20 C, Pa s (handbook value)
 D = 0.0318  # 1 1/4 in brake pipe bore, m
 A = math.pi * D**2 / 4
 EPS = 4.5e-5  # commercial steel, m
@@ -151,7 +152,7 @@ def test_front_travels_at_the_speed_of_sound_on_the_default_grid(drop):
 
 def test_laminar_friction_slows_and_damps_a_wave_as_the_telegraph_equation_says():
     """The first standing mode of a closed 100 m pipe of 4 mm bore (laminar friction
-    rate kappa = 32 mu / (D^2 rho) = 4.8 1/s, of the order of the mode's 9.1 rad/s)
+    rate kappa = 32 mu / (D^2 rho) = 5.1 1/s, of the order of the mode's 9.1 rad/s)
     against the linearised damped-wave (telegraph) equation
     ``p_tt + kappa p_t = c^2 p_xx``: amplitude ``exp(-kappa t / 2)``, frequency
     ``omega_d = sqrt(c^2 k^2 - kappa^2 / 4)``, i.e. a phase speed ``omega_d / k`` below c."""
@@ -186,7 +187,7 @@ def test_laminar_friction_slows_and_damps_a_wave_as_the_telegraph_equation_says(
     assert abs(alpha / (kappa / 2) - 1) < 2e-3
     assert abs(omega / omega_d - 1) < 2e-4
     speed = omega / k
-    assert 0.95 < speed / C < 0.98  # slower than c by 3.6 % ...
+    assert 0.95 < speed / C < 0.97  # slower than c by 4.0 % ...
     assert abs(speed / (omega_d / k) - 1) < 2e-4  # ... as the closed form says
 
 
@@ -326,6 +327,15 @@ def test_rest_is_an_equilibrium():
 
 
 # ---------------------------------------------------------------- friction
+def test_viscosity_of_air():
+    """Sutherland's law against tabulated viscosities of dry air at 1 atm, Pa s
+    (chem-casts.com's air property table, 3 digits): within 2 % from -20 C to 100 C
+    (within 0.6 % from 20 C up)."""
+    for temp, mu, tol in ((253.15, 1.59e-5, 0.02), (293.15, 1.81e-5, 0.006),
+                          (353.15, 2.08e-5, 0.006), (373.15, 2.16e-5, 0.006)):
+        assert abs(air_viscosity(temp) / mu - 1) < tol
+
+
 def _colebrook(re, rel):
     fun = lambda s: s + 2.0 * math.log10(rel / 3.7 + 2.51 * s / re)
     s = brentq(fun, 0.5, 50.0)

@@ -128,6 +128,17 @@ PHI_LAMINAR = 64.0
 RE_LAMINAR = 2300.0
 #: Reynolds number above which the turbulent law (Haaland) holds alone, -
 RE_TURBULENT = 4000.0
+#: Sutherland's law for air (White, Viscous Fluid Flow, 3rd ed., 2006, eq. 1-36 and
+#: table 1-2): reference viscosity (Pa s) at the reference temperature (K), constant (K)
+SUTHERLAND_AIR = (1.716e-5, 273.15, 110.4)
+
+
+def air_viscosity(temperature: float) -> float:
+    """Dynamic viscosity of air, Pa s, at ``temperature`` (K), by Sutherland's law
+    ``mu0 (T / T0)^1.5 (T0 + S) / (T + S)``: 1.81e-5 Pa s at 293.15 K. It does not
+    depend on pressure (kinetic theory; within 1 % up to some 20 bar)."""
+    mu0, t0, s = SUTHERLAND_AIR
+    return mu0 * (temperature / t0) ** 1.5 * (t0 + s) / (temperature + s)
 
 
 @njit(cache=True, inline="always")
@@ -194,7 +205,8 @@ def pipe_rates(p, q, inflow, area, dx_cell, dx_face, diameter, roughness, viscos
     roughness : float
         Wall roughness, m.
     viscosity : float
-        Dynamic viscosity of air, Pa s (1.81e-5 at 20 C); 0 switches wall friction off.
+        Dynamic viscosity of air, Pa s (:func:`air_viscosity` of the temperature:
+        1.81e-5 at 20 C); 0 switches wall friction off (an inviscid pipe, for tests).
     leak_cd_area : float64[nc]
         Discharge coefficient times area of each cell's leak to atmosphere, m^2 (0:
         tight).
