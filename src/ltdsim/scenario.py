@@ -830,9 +830,11 @@ class Air(_Strict):
                                 description="orifice law: pressure ratio above which the "
                                             "flow is taken linear in the pressure "
                                             "difference, -")
-    viscosity: float = Field(1.81e-5, ge=0.0, le=1e-4,
-                             description="dynamic viscosity of air for the pipe's wall "
-                                         "friction (0: frictionless), Pa s")
+    viscosity: float | None = Field(
+        None, ge=0.0, le=1e-4,
+        description="dynamic viscosity of air for the pipe's wall friction (none: "
+                    "Sutherland's law at temperature, 1.81e-5 at 20 C; 0: frictionless), "
+                    "Pa s")
 
 
 class Brake(_Strict):
