@@ -74,43 +74,42 @@ def arrivals(ds, drop):
     return out, front - x
 
 
-def speed_of(arr, dist, skip=5):
-    """Least-squares propagation speed (m/s) of arrival times ``arr`` (s) against
-    distance ``dist`` (m), leaving out the first ``skip`` vehicles (the front, where the
-    driver's valve's own opening time dominates)."""
-    slope = np.polyfit(dist[skip:], arr[skip:], 1)[0]
-    return 1.0 / slope
+def rear_speed(ds, t_cmd, drop=0.3e5):
+    """Brake-signal propagation speed, m/s, as the railways state it: the last vehicle's
+    distance from the driver's valve over the time from the handle's movement (``t_cmd``,
+    s) to the pipe's ``drop`` (Pa) at that vehicle."""
+    arr, dist = arrivals(ds, drop)
+    assert arr[-1] > arr[1:-1].max()  # the rear is the last to see it
+    return dist[-1] / (arr[-1] - t_cmd)
 
 
 @pytest.fixture(scope="module")
 def long_runs():
-    """A 100-wagon train (1459 m) under an emergency and a full service at 0.2 s."""
+    """A 100-wagon train (1459 m) under an emergency and a full service at 0.2 s, with
+    North American (aar) and UIC goods (uic-g) valves."""
     runs = {}
-    for handle, t_end in (("emergency", 8.0), ("full", 14.0)):
-        runs[handle] = ltdsim.simulate(build(fluid_train(
-            100, [{"time": 0.2, "handle": handle}], t_end=t_end, out=0.02)))
+    for valve, handle, t_end in (("aar", "emergency", 7.0), ("aar", "full", 10.0),
+                                 ("uic-g", "full", 14.0)):
+        runs[valve, handle] = ltdsim.simulate(build(fluid_train(
+            100, [{"time": 0.2, "handle": handle}], valve=valve, t_end=t_end, out=0.02)))
     return runs
 
 
 def test_emergency_propagates_at_the_uic_540_speed_and_service_slower(long_runs):
-    speeds = {}
-    for handle, ds in long_runs.items():
-        arr, dist = arrivals(ds, 0.3e5)  # a 0.3 bar drop of the pipe
-        speeds[handle] = speed_of(arr, dist)
-        # the drop travels front to rear
-        assert np.all(np.diff(arr[1:]) > 0.0)
-    em, sv = speeds["emergency"], speeds["full"]
+    em = rear_speed(long_runs["aar", "emergency"], 0.2)
+    sv = rear_speed(long_runs["aar", "full"], 0.2)
     print(f"emergency {em:.0f} m/s, full service {sv:.0f} m/s")
-    assert UIC_540_EMERGENCY <= em <= 1.05 * C_ISOTHERMAL
+    # UIC 540's least emergency speed; no faster than the pipe's speed of sound
+    assert UIC_540_EMERGENCY <= em <= C_ISOTHERMAL
     assert sv < 0.9 * em
 
 
 def test_service_application_reaches_the_rear_later_and_lower(long_runs):
-    ds = long_runs["full"]
+    ds = long_runs["uic-g", "full"]
     t = ds.time.values
     bc = ds.brake_cylinder_pressure.values[:, 1:]  # the wagons (the loco has no valve)
-    first = np.argmax(bc > 0.3e5, axis=0)  # cylinder past 0.3 bar
     assert (bc > 0.3e5)[-1].all()
+    first = np.argmax(bc > 0.3e5, axis=0)  # cylinder past 0.3 bar
     front, rear = bc[:, :10], bc[:, -10:]
     assert t[first[-10:]].min() > t[first[:10]].max()
     # while applying, the rear's cylinders stay below the front's
@@ -187,13 +186,14 @@ def test_full_service_brakes_as_hard_as_the_lumped_brake_at_level_one():
     d = fluid_train(3, [{"time": 0.5, "handle": "full"}], valve="uic-p", t_end=25.0,
                     out=0.5, speed=30.0)
     fluid = ltdsim.simulate(build(d))
-    d["brake"] = {"model": "lumped"}
+    d["brake"] = {"model": "lumped", "apply_time_constant": 1.0}
     lumped = ltdsim.simulate(build(d))
     f_fluid = fluid.brake_force.values[-1, 1:]
     f_lumped = lumped.brake_force.values[-1, 1:]
     assert np.all(fluid.velocity.values[-1] > 1.0)  # still moving: full friction
+    # the lumped fill after 24.5 s of a 1 s lag is 1 within 3e-11
     expected = WAGON["cylinder_force"] * WAGON["rigging_ratio"] * WAGON["friction"]
-    np.testing.assert_allclose(f_lumped, expected, rtol=1e-9)
+    np.testing.assert_allclose(f_lumped, expected, rtol=1e-6)
     print("fluid / lumped:", f_fluid / f_lumped)
     np.testing.assert_allclose(f_fluid, f_lumped, rtol=0.01)
 
@@ -209,7 +209,7 @@ def test_fixed_step_and_adaptive_runs_agree_on_an_emergency():
         b = np.nan_to_num(fx[name].values)
         err = np.max(np.abs(a - b))
         print(name, f"{err:.3g} Pa")
-        assert err < 0.005 * 5e5
+        assert err < 1e-4 * 5e5  # 50 Pa
     np.testing.assert_allclose(fx.velocity.values, ad.velocity.values, atol=1e-4)
 
 
