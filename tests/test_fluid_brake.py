@@ -250,3 +250,33 @@ def test_lumped_handles_are_levels():
     b = ltdsim.simulate(build(d))
     np.testing.assert_array_equal(a.brake_force.values, b.brake_force.values)
     assert a.brake_force.values[-1, 1:].max() > 0.0
+
+
+def test_remote_brake_control_point_vents_with_the_lead():
+    """Distributed power: a remote consist mid-train with brake_control moves its
+    driver's valve with the lead's (radio, same instant), so the emergency reaches the
+    whole train in about the time it takes to cross half of it; without brake_control
+    the remote is pipe like any other vehicle."""
+    # (loco, 50 wagons, remote loco, 50 wagons: vehicle 51 is the remote)
+    d = fluid_train(100, [{"time": 0.2, "handle": "emergency"}], valve="aar", t_end=7.0,
+                    out=0.02)
+    wagon = d["vehicles"][1]
+    d["vehicles"] = [d["vehicles"][0], dict(wagon, count=50),
+                     {"name": "remote", "mass": 9e4, "length": 19.0, "powered": True},
+                     dict(wagon, count=50)]
+    d["locomotives"] = [{"name": "lead", "vehicles": [0]},
+                        {"name": "remote", "vehicles": [51], "brake_control": True}]
+    both = ltdsim.simulate(build(d))
+    d["locomotives"][1]["brake_control"] = False
+    lead = ltdsim.simulate(build(d))
+    arr_both, dist = arrivals(both, 0.3e5)
+    arr_lead, _ = arrivals(lead, 0.3e5)
+    # the remote's own pipe drops as early as the lead's
+    assert abs(arr_both[51] - arr_both[0]) < 0.05
+    # between the two, the pipe drops from both sides: the wagons there (at most 25
+    # wagons from a control point) see it before the rear (50 wagons from the remote)
+    assert arr_both[1:51].max() < arr_both[-1]
+    assert int(np.argmax(arr_both)) == len(arr_both) - 1
+    print(f"whole train reached after {arr_both.max() - 0.2:.2f} s (lead alone "
+          f"{arr_lead.max() - 0.2:.2f} s)")
+    assert arr_both.max() - 0.2 < 0.6 * (arr_lead.max() - 0.2)
