@@ -57,8 +57,9 @@ laminar law is the regularisation, and it is the physics of slow flow.
 
 Scheme
 ------
-Finite volumes on a staggered grid (Harlow and Welch's marker-and-cell arrangement,
-Patankar's staggered momentum cells): the pipe is cut into ``nc`` cells of lengths
+Finite volumes on a staggered grid (Harlow and Welch, Phys. Fluids 8, 2182-2189, 1965;
+Versteeg and Malalasekera, An Introduction to Computational Fluid Dynamics: the finite
+volume method, ch. 6): the pipe is cut into ``nc`` cells of lengths
 ``dx_i`` (m) holding the pressures ``p_i``; the ``nc - 1`` faces between neighbouring
 cells hold the flows ``q_j`` (face ``j`` joins cells ``j`` and ``j + 1``; the two pipe
 ends are closed faces with zero flow)::
