@@ -43,7 +43,7 @@ def rig_run(y0, cv, dv, t_end, h, times, handles, reductions, vents, pipe_volume
     """Integrate from 0 to ``t_end`` with step ``h``; the command in force at time t is
     the last row i with times[i] <= t (handle, reduction Pa, forced vent Cd A m^2).
     Returns (t, y) sampled every ``every`` steps."""
-    n = int(round(t_end / h))
+    n = round(t_end / h)
     m = n // every + 1
     ts = np.empty(m)
     ys = np.empty((m, y0.size))
@@ -130,7 +130,7 @@ def _cv_rhs(p, s, cv, ds):
 def cv_run_pipe(s0, cv, t_end, h, p0, rate, total, every):
     """One control valve on a prescribed pipe pressure p0 - min(rate t, total) (Pa abs;
     rate Pa/s, negative for a rise), classical RK4 at step h. Returns (t, states)."""
-    n = int(round(t_end / h))
+    n = round(t_end / h)
     m = n // every + 1
     ts = np.empty(m)
     ss = np.empty((m, s0.size))
