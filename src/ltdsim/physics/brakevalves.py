@@ -620,17 +620,17 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
         inv = (1.0 / v1 if v1 > 0 else 0.0) + (1.0 / v2 if v2 > 0 else 0.0)
         return rt * _g(cda, gamma, r_gas, temperature, r_lin) * inv
 
-    inf = 0.0  # an "infinite" volume (the atmosphere) adds nothing: 1/V = 0
+    atmos = 0.0  # the atmosphere, an infinite volume: it adds 1/V = 0
     rates = []
     if kind == "control":
         va, vc, vr, ve = par[P_VAUX], par[P_VCYL], par[P_VCTRL], par[P_VER]
         vq, vk = par[P_VQS], par[P_VQA]
         rates += [pair(par[P_CHARGE], cell_volume, va), pair(par[P_CTRL], cell_volume, vr),
                   pair(par[P_ERCHARGE], cell_volume, ve), pair(par[P_APPLY], va, vc),
-                  pair(par[P_RELEASE], vc, inf), pair(par[P_QS], cell_volume, vq),
-                  pair(par[P_QSVENT], vq, inf), pair(par[P_QSCYL], cell_volume, vc),
-                  pair(par[P_QA], cell_volume, vk), pair(par[P_QAVENT], vk, inf),
-                  pair(par[P_VENT], cell_volume, inf), pair(par[P_EMAPPLY], ve, vc),
+                  pair(par[P_RELEASE], vc, atmos), pair(par[P_QS], cell_volume, vq),
+                  pair(par[P_QSVENT], vq, atmos), pair(par[P_QSCYL], cell_volume, vc),
+                  pair(par[P_QA], cell_volume, vk), pair(par[P_QAVENT], vk, atmos),
+                  pair(par[P_VENT], cell_volume, atmos), pair(par[P_EMAPPLY], ve, vc),
                   1.0 / par[P_TPISTON], 1.0 / par[P_TEM]]
         f_full = _choked(max(par[P_APPLY], par[P_RELEASE]), p_max, gamma, r_gas, temperature)
         if par[P_FAMILY] == FAMILY_UIC:
@@ -639,9 +639,9 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
             rates.append(rt * f_full / (va * par[P_BAND]))
     elif kind == "driver":
         vm, ver = par[Q_VMR], par[Q_VER]
-        rates += [pair(par[Q_CHARGE], vm, ver), pair(par[Q_SERVICE], ver, inf),
-                  pair(par[Q_EMERG], ver, inf), pair(par[Q_FEED], vm, cell_volume),
-                  pair(par[Q_EXH], cell_volume, inf), pair(par[Q_VENT], cell_volume, inf),
+        rates += [pair(par[Q_CHARGE], vm, ver), pair(par[Q_SERVICE], ver, atmos),
+                  pair(par[Q_EMERG], ver, atmos), pair(par[Q_FEED], vm, cell_volume),
+                  pair(par[Q_EXH], cell_volume, atmos), pair(par[Q_VENT], cell_volume, atmos),
                   1.0 / par[Q_TVENT],
                   rt * _choked(par[Q_CHARGE], p_max, gamma, r_gas, temperature)
                   / (ver * par[Q_REGBAND]),
