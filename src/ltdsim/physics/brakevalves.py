@@ -49,9 +49,9 @@ row (:data:`CV_PARAMS`); the row's ``family`` picks the law:
   valve's friction, then the lighter graduating valve), lap when they are equal again,
   release when the pipe is ``release_threshold`` above the reservoir. In between the
   piston stays where it is (its friction): a released valve stays released, an applying
-  one laps. In release the
-  cylinder exhausts fully and the auxiliary and emergency reservoirs recharge. In
-  emergency the emergency reservoir joins the auxiliary one in the cylinder.
+  one laps. In release the cylinder exhausts fully and the auxiliary and emergency
+  reservoirs recharge. In emergency the emergency reservoir joins the auxiliary one in
+  the cylinder.
 
 Both families have quick service (while the piston applies and the cylinder is below
 ``quick_service_limit``, pipe air flows into a quick-service bulb that bleeds to the
