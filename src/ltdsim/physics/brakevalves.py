@@ -45,11 +45,13 @@ row (:data:`CV_PARAMS`); the row's ``family`` picks the law:
   through a check valve and a choke.
 * **AAR** (direct release; triple-valve behaviour): the piston compares the auxiliary
   reservoir with the pipe: application when the reservoir is ``threshold`` above the
-  pipe, lap when they are equal again, release when the pipe is
-  ``release_threshold`` above the reservoir. In between the piston stays where it is
-  (its friction): a released valve stays released, an applying one laps. In release the
-  cylinder exhausts fully and the auxiliary and emergency reservoirs recharge. In
-  emergency the emergency reservoir joins the auxiliary one in the cylinder.
+  pipe (the threshold shrinks to 0 as the piston travels to application: the slide
+  valve's friction, then the lighter graduating valve), lap when they are equal again,
+  release when the pipe is ``release_threshold`` above the reservoir. In between the
+  piston stays where it is (its friction): a released valve stays released, an applying
+  one laps. In release the cylinder exhausts fully and the auxiliary and emergency
+  reservoirs recharge. In emergency the emergency reservoir joins the auxiliary one in
+  the cylinder.
 
 Both families have quick service (while the piston applies and the cylinder is below
 ``quick_service_limit``, pipe air flows into a quick-service bulb that bleeds to the
@@ -278,7 +280,10 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     else:
         # triple valve: auxiliary reservoir against the pipe, with piston friction
         d = pa - p_bp
-        pull_apply = _ramp((d - par[P_THRESH]) / band)
+        # the slide valve needs `threshold` to leave release or lap; once applying, the
+        # lighter graduating valve laps as the reservoir falls to the pipe (with `band`
+        # under `threshold` the piston snaps both ways: a physical hysteresis)
+        pull_apply = _ramp((d - par[P_THRESH] * (1.0 - max(x, 0.0))) / band)
         pull_release = _ramp((-d - par[P_RELTHRESH]) / band)
         x_target = pull_apply - pull_release + (1.0 - pull_apply - pull_release) * min(x, 0.0)
         f_charge = _through(-x, p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
