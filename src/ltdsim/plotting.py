@@ -136,6 +136,89 @@ def save_overview(ds: xr.Dataset, path: str | Path) -> Path:
     return _save(overview_figure(ds), path)
 
 
+def _vehicle_map(fig, ax, t, values, label, cmap, vmax=None):
+    """A time x vehicle map of ``values`` (Pa gauge, time x vehicle) in bar, vehicle 1 at
+    the top; NaN (no such state on that vehicle) in light grey."""
+    bar = np.asarray(values, float).T / 1e5
+    n = bar.shape[0]
+    top = vmax if vmax is not None else (np.nanmax(bar) if np.isfinite(bar).any() else 1.0)
+    colours = plt.get_cmap(cmap).copy()
+    colours.set_bad("0.88")
+    dt = (t[-1] - t[0]) / max(t.size - 1, 1)
+    image = ax.imshow(bar, aspect="auto", interpolation="nearest", cmap=colours, vmin=0.0,
+                      vmax=top or 1.0, extent=(t[0] - dt / 2, t[-1] + dt / 2, n + 0.5, 0.5))
+    fig.colorbar(image, ax=ax, label=label, pad=0.01)
+    ax.set_ylabel("vehicle\n(1 = lead)")
+    ax.yaxis.set_major_locator(plt.MaxNLocator(integer=True, nbins=min(n, 10)))
+    ax.grid(False)
+
+
+def brake_pressure_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
+                          summary: dict | None = None):
+    """Pipe and cylinder pressure along the train over time, for a run with the fluid
+    brake: the brake-pipe pressure and the brake-cylinder pressure of every vehicle as
+    time x vehicle maps (bar, gauge; vehicle 1 = the lead at the top; light grey where a
+    vehicle has no cylinder), and both pressures against time at the lead, middle and
+    rear braked vehicles. With ``summary`` (:func:`ltdsim.summary.fluid_brake_summary`)
+    the arrival of its application (the pipe fallen 0.2 bar) is drawn on the pipe map and
+    its propagation speed and the rear cylinder's 95 % time are in the title.
+    ``window`` (s, s) limits the time shown.
+
+    Returns the matplotlib ``Figure``.
+    """
+    sel = ds if window is None else ds.sel(time=slice(*window))
+    t = sel.time.values
+    pipe = sel.brake_pipe_pressure.values
+    cyl = sel.brake_cylinder_pressure.values
+    n = pipe.shape[1]
+    fig, axes = plt.subplots(3, 1, figsize=(WIDTH, 10.5), sharex=True, constrained_layout=True,
+                             height_ratios=(1.3, 1.3, 1.0))
+    _vehicle_map(fig, axes[0], t, pipe, "brake pipe [bar, gauge]", "viridis")
+    axes[0].set_title("brake-pipe pressure along the train")
+    _vehicle_map(fig, axes[1], t, cyl, "brake cylinder [bar, gauge]", "inferno")
+    axes[1].set_title("brake-cylinder pressure along the train (grey: no cylinder)")
+    if summary is not None:
+        arr = summary["command_time_s"] + np.asarray(summary["arrival_s"])
+        veh = np.arange(1, n + 1)
+        ok = np.isfinite(arr)
+        axes[0].plot(arr[ok], veh[ok], color="w", lw=1.2, ls="--",
+                     label=f"arrival: pipe {summary['threshold_Pa'] / 1e5:.1f} bar below "
+                           "its pressure before the command")
+        axes[0].legend(loc="lower right", framealpha=0.8)
+    braked = np.flatnonzero(np.isfinite(cyl).all(axis=0))
+    picks = sorted({int(braked[0]), int(braked[len(braked) // 2]), int(braked[-1])}) \
+        if braked.size else [0, n - 1]
+    ax = axes[2]
+    for k, i in enumerate(picks):
+        colour = HIGHLIGHT_COLOURS[k % 5]
+        ax.plot(t, pipe[:, i] / 1e5, color=colour, lw=1.0, label=f"pipe, vehicle {i + 1}")
+        if np.isfinite(cyl[:, i]).all():
+            ax.plot(t, cyl[:, i] / 1e5, color=colour, lw=1.0, ls="--",
+                    label=f"cylinder, vehicle {i + 1}")
+    ax.set_ylabel("pressure [bar, gauge]")
+    ax.set_xlabel("time [s]")
+    ax.legend(loc="best", ncol=2)
+    title = ds.attrs.get("title", "ltdsim result") + ": fluid air brake"
+    if summary is not None:
+        bits = []
+        if np.isfinite(summary["propagation_speed_m_s"]):
+            bits.append(f"propagation {summary['propagation_speed_m_s']:.0f} m/s")
+        if np.isfinite(summary["last_cylinder_95_s"]):
+            bits.append(f"rear cylinder (vehicle {summary['last_vehicle'] + 1}) at 95 % "
+                        f"{summary['last_cylinder_95_s']:.1f} s after the command at "
+                        f"{summary['command_time_s']:.1f} s")
+        if bits:
+            title += "\n" + "; ".join(bits)
+    fig.suptitle(title)
+    return fig
+
+
+def save_brake_pressures(ds: xr.Dataset, path: str | Path, window=None, summary=None) -> Path:
+    """Write :func:`brake_pressure_figure` to ``path`` (PNG, SVG or PDF by suffix),
+    atomically."""
+    return _save(brake_pressure_figure(ds, window, summary), Path(path))
+
+
 def save_gear_loop(ds: xr.Dataset, path: str | Path, title: str = "") -> Path:
     """Force-deflection loop of a gear run (:func:`ltdsim.gear.drive_deflection`)."""
     fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)
