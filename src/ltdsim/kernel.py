@@ -79,6 +79,37 @@ from numba import njit
 
 from ltdsim.coupler_models import M_SIMPLIFIED, P_D0, coupler_force
 from ltdsim.layout import (
+    A_AREA,
+    A_ATM,
+    A_DIAM,
+    A_GAMMA,
+    A_RGAS,
+    A_RLIN,
+    A_ROUGH,
+    A_TEMP,
+    A_VISC,
+    BRAKE_FLUID,
+    CMD_EMERGENCY,
+    CMD_LEVEL,
+    CMD_RELEASE,
+    D_BMODEL,
+    EV_KIND,
+    EV_LEVEL,
+    EV_TIME,
+    EV_VALUE,
+    I_CELLS,
+    I_CV,
+    I_DV,
+    I_EXH,
+    I_NCP,
+    I_PIPE,
+    V_BAREA,
+    V_BCELL,
+    V_BCV,
+    V_BGAIN,
+    V_BINVSHOES,
+    V_BPFS,
+    V_BSPRING,
     D_BCTRL,
     D_BFULLSUM,
     D_BPLEN,
@@ -143,6 +174,18 @@ from ltdsim.physics.brakes import (
     brake_retardation,
     karwatzki,
 )
+from ltdsim.physics.brakepipe import pipe_rates
+from ltdsim.physics.brakevalves import (
+    CV_STATES,
+    DV_STATES,
+    H_EMERGENCY,
+    H_RELEASE,
+    H_SERVICE,
+    DV_PARAMS,
+    control_valve,
+    driver_valve,
+    driver_valve_compressor,
+)
 from ltdsim.physics.control import PID_STATE, pid_step
 from ltdsim.physics.resistance import (
     curve_resistance,
@@ -160,8 +203,14 @@ N_SCALARS = 6
 #: force N, time of the largest s, time of the smallest s
 PK_MAX, PK_MIN, PK_TMAX, PK_TMIN = range(4)
 N_PEAKS = 4
-#: columns of the brake-command store, one row per command: time issued s, level 0-1
-EV_TIME, EV_LEVEL = range(2)
+#: the brake-command store has one row per command, ``EV_*`` columns
+#: (:data:`ltdsim.layout.EVENT_COLUMNS`: time issued s, level 0-1, kind, value)
+#: states of a control valve and of a driver's valve (:mod:`ltdsim.physics.brakevalves`)
+N_CV = len(CV_STATES)
+N_DV = len(DV_STATES)
+CV_AUX = CV_STATES.index("auxiliary")
+CV_CYL = CV_STATES.index("cylinder")
+DV_FULL = DV_PARAMS.index("full_reduction")
 
 #: signals of the last right-hand-side evaluation (one record, in :class:`Work`):
 #: total traction force N, traction demand before the traction-curve limits N, total
@@ -184,6 +233,21 @@ STEPPER = np.dtype([("h", np.float64), ("accepted", np.int64), ("rejected", np.i
                     ("last_rejected", np.bool_)])
 
 
+class AirBrake(NamedTuple):
+    """The fluid-dynamic air brake (``brake.model = "fluid"``; empty arrays for the
+    lumped brake): the brake pipe's grid, the valves' parameter rows and where their
+    states sit in ``y`` (:mod:`ltdsim.physics.brakepipe`, :mod:`~ltdsim.physics.brakevalves`)."""
+
+    gas: np.ndarray  # gas and pipe constants, layout.AIR_SLOTS
+    index: np.ndarray  # int64 state offsets and counts, layout.AIR_INDEX
+    dx_cell: np.ndarray  # (cells,) cell lengths, m
+    dx_face: np.ndarray  # (cells - 1,) distances between cell centres, m
+    leak: np.ndarray  # (cells,) leak to atmosphere per cell, Cd x area m^2
+    cv: np.ndarray  # (braked vehicles, CV_PARAMS) control-valve rows
+    dv: np.ndarray  # (brake-control points, DV_PARAMS) driver's-valve rows
+    dv_cell: np.ndarray  # (brake-control points,) int64 cell each driver's valve feeds
+
+
 class Train(NamedTuple):
     """The lowered train and track (columns in :mod:`ltdsim.layout`)."""
 
@@ -196,6 +260,7 @@ class Train(NamedTuple):
     track_curv: np.ndarray  # curvature on each segment, 1/m
     curve_h: float  # curve-resistance constant, - (physics.resistance.curve_resistance)
     tables: np.ndarray  # flat store of tables (gear curves, friction, notches, schedules)
+    air: AirBrake  # the fluid air brake (empty for the lumped brake)
 
 
 class Couplers(NamedTuple):
@@ -219,7 +284,7 @@ class Controller(NamedTuple):
 
     state: np.ndarray  # one CONTROLLER record
     pid: np.ndarray  # one PID_STATE record (physics.control): integrator, filter states
-    events: np.ndarray  # (MAX_EVENTS, 2) brake commands issued, EV_* columns
+    events: np.ndarray  # (MAX_EVENTS, N_EVENT_COLUMNS) brake commands issued, EV_* columns
 
 
 class FixedStep(NamedTuple):
@@ -263,6 +328,7 @@ class Work(NamedTuple):
     fcons: np.ndarray  # (consists,) force of each locomotive consist, N
     sig: np.ndarray  # one SIGNALS record
     hints: np.ndarray  # int64 search cursors: [0, n) track, n driver, n + 1 speed profile
+    inflow: np.ndarray  # (pipe cells,) fluid brake: mass flow into each pipe cell, kg/s
 
 
 class Outputs(NamedTuple):
@@ -277,14 +343,21 @@ class Outputs(NamedTuple):
     b: np.ndarray  # (records, n or 0) air-brake force, N
     p: np.ndarray  # (records, n or 0) brake-cylinder fill, -
     c: np.ndarray  # (records, consists or 0) force of each consist, N
+    bp: np.ndarray  # (records, n or 0) fluid brake: pipe pressure at each vehicle, Pa gauge
+    ar: np.ndarray  # (records, n or 0) auxiliary reservoir, Pa gauge (NaN: unbraked)
+    bc: np.ndarray  # (records, n or 0) brake cylinder, Pa gauge (NaN: unbraked)
+    ax: np.ndarray  # (records, 1 or 0) air exhausted to atmosphere so far, kg
     peaks: np.ndarray  # (n - 1, N_PEAKS) peak coupler forces over every step, PK_* columns
 
 
 def make_train(low) -> Train:
     """:class:`Train` of a :class:`~ltdsim.lowering.Lowered` scenario."""
+    air = AirBrake(gas=low.air_gas, index=low.air_index, dx_cell=low.pipe_dx_cell,
+                   dx_face=low.pipe_dx_face, leak=low.pipe_leak, cv=low.cv_rows,
+                   dv=low.dv_rows, dv_cell=low.dv_cell)
     return Train(veh=low.veh, inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
                  track_pos=low.track_pos, track_grade=low.track_grade,
-                 track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab)
+                 track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab, air=air)
 
 
 def make_couplers(low) -> Couplers:
@@ -307,7 +380,8 @@ def make_driver(low) -> Driver:
 
 def make_controller(events: np.ndarray) -> Controller:
     """A controller that has done nothing yet, issuing its brake commands into
-    ``events`` (``(max commands, 2)``, ``EV_*`` columns)."""
+    ``events`` (``(max commands, N_EVENT_COLUMNS)``, ``EV_*`` columns, zeros: a
+    command's kind is ``CMD_LEVEL`` unless it says otherwise)."""
     return Controller(state=np.zeros(1, dtype=CONTROLLER), pid=np.zeros(1, dtype=PID_STATE),
                       events=events)
 
@@ -320,23 +394,24 @@ def make_stepper(h0: float) -> np.ndarray:
     return st
 
 
-def make_work(n: int, ny: int, stages: int, n_consists: int) -> Work:
+def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0) -> Work:
     """:class:`Work` for ``n`` vehicles, a state of ``ny`` elements, ``stages`` stage
-    derivatives and ``n_consists`` locomotive consists."""
+    derivatives, ``n_consists`` locomotive consists and ``cells`` brake-pipe cells
+    (fluid brake)."""
     nc = max(n - 1, 1)
     return Work(K=np.zeros(stages * ny), ytmp=np.zeros(ny), ynew=np.zeros(ny),
                 force=np.zeros(nc), defl=np.zeros(nc), res=np.zeros(n), bforce=np.zeros(n),
                 fcons=np.zeros(n_consists), sig=np.zeros(1, dtype=SIGNALS),
-                hints=np.zeros(n + 2 + n_consists, dtype=np.int64))
+                hints=np.zeros(n + 2 + n_consists, dtype=np.int64), inflow=np.zeros(cells))
 
 
 
-def work_size(n: int, ny: int, stages: int, n_consists: int = 1) -> int:
+def work_size(n: int, ny: int, stages: int, n_consists: int = 1, cells: int = 0) -> int:
     """Elements (8 bytes each) of the :class:`Work` that :func:`make_work` builds for the
     same arguments, counted without allocating it (the memory check before a run)."""
     nc = max(n - 1, 1)
     return (stages * ny + 2 * ny + 2 * nc + 2 * n + n_consists + len(SIGNALS.names)
-            + n + 2 + n_consists)
+            + n + 2 + n_consists + cells)
 
 @njit(cache=True, inline="always")
 def _segment(xs, x, hint):
@@ -456,9 +531,12 @@ def _brakes(t, y, events, n_events, tr, dr, w, dy):
     of the commands ``events[:n_events]`` to have reached its vehicle, with the apply or
     release time constant (s); its rate (1/s) goes to ``dy``. The shoe force (N) times
     the shoe friction gives the braking force, written to ``w.bforce`` (N, + opposing
-    forward motion) and added to ``w.res``. Nothing when the train has no air brakes."""
+    forward motion) and added to ``w.res``. Nothing when the train has no air brakes.
+    The fluid brake (``brake.model = "fluid"``) is :func:`_fluid_brakes`."""
     drv = dr.par
-    if drv[D_BFULLSUM] > 0.0:
+    if drv[D_BMODEL] == BRAKE_FLUID:
+        _fluid_brakes(t, y, events, n_events, tr, dr, w, dy)
+    elif drv[D_BFULLSUM] > 0.0:
         veh = tr.veh
         ctab = tr.tables
         res = w.res
@@ -481,6 +559,98 @@ def _brakes(t, y, events, n_events, tr, dr, w, dy):
                                         * shoe_friction(i, v, shoe, veh, ctab), vs)
             w.bforce[i] = fb
             res[i] += fb
+
+
+@njit(cache=True, inline="always")
+def fluid_command(t, events, n_events, full):
+    """Handle (``brakevalves.H_*``) and service reduction (Pa) of the driver's valves at
+    time ``t`` (s): the latest of ``events[:n_events]`` issued by then (every
+    brake-control point at once: the remote units follow the lead by radio). A command
+    by level L (``CMD_LEVEL``) is a service reduction of L x ``full`` (Pa), 0 a release;
+    before any command, release (the pipe charged)."""
+    e = n_events - 1
+    while e >= 0:
+        if events[e, EV_TIME] <= t:
+            kind = events[e, EV_KIND]
+            if kind == CMD_LEVEL:
+                level = events[e, EV_LEVEL]
+                if level > 0.0:
+                    return H_SERVICE, level * full
+                return H_RELEASE, 0.0
+            if kind == CMD_RELEASE:
+                return H_RELEASE, 0.0
+            if kind == CMD_EMERGENCY:
+                return H_EMERGENCY, 0.0
+            return H_SERVICE, events[e, EV_VALUE]
+        e -= 1
+    return H_RELEASE, 0.0
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _fluid_brakes(t, y, events, n_events, tr, dr, w, dy):
+    """The fluid-dynamic air brake at time ``t`` (s): the rates of the brake pipe's cell
+    pressures (Pa/s) and face flows (kg/s^2) (:func:`~ltdsim.physics.brakepipe.pipe_rates`),
+    of every driver's valve's and control valve's states
+    (:func:`~ltdsim.physics.brakevalves.driver_valve`, ``control_valve``) and of the air
+    exhausted to atmosphere (kg/s: vents, exhausts and leaks, less what compressors
+    deliver), written to ``dy``. The driver's valves all take the latest command
+    (:func:`fluid_command`). Each braked vehicle's cylinder pressure ``p`` (Pa gauge)
+    gives the force ``max(0, p x piston area - return spring) x efficiency x rigging
+    ratio`` on its shoes, times the shoe friction: the braking force, written to
+    ``w.bforce`` (N, + opposing forward motion) and added to ``w.res``."""
+    air = tr.air
+    gas = air.gas
+    idx = air.index
+    veh = tr.veh
+    ctab = tr.tables
+    res = w.res
+    inflow = w.inflow
+    n = veh.shape[0]
+    vs = dr.par[D_BVS]
+    gamma = gas[A_GAMMA]
+    r_gas = gas[A_RGAS]
+    temp = gas[A_TEMP]
+    atm = gas[A_ATM]
+    r_lin = gas[A_RLIN]
+    zp = idx[I_PIPE]
+    nc = idx[I_CELLS]
+    zq = zp + nc
+    zd = idx[I_DV]
+    zx = idx[I_EXH]
+    p = y[zp:zq]
+    for c in range(nc):
+        inflow[c] = 0.0
+    exhausted = 0.0
+    handle, reduction = fluid_command(t, events, n_events, air.dv[0, DV_FULL])
+    for c in range(idx[I_NCP]):
+        o = zd + c * N_DV
+        cell = air.dv_cell[c]
+        into, out = driver_valve(p[cell], y[o:o + N_DV], air.dv[c], handle, reduction, gamma,
+                                 r_gas, temp, atm, r_lin, dy[o:o + N_DV])
+        inflow[cell] += into
+        exhausted += out - driver_valve_compressor(y[o:o + N_DV], air.dv[c])
+    for i in range(n):
+        zb = int(veh[i, V_BZ])
+        if zb < 0:
+            continue
+        cell = int(veh[i, V_BCELL])
+        draw, out = control_valve(p[cell], y[zb:zb + N_CV], air.cv[int(veh[i, V_BCV])], gamma,
+                                  r_gas, temp, atm, r_lin, dy[zb:zb + N_CV])
+        inflow[cell] -= draw
+        exhausted += out
+        v = y[n + i]
+        fc = max((y[zb + CV_CYL] - atm) * veh[i, V_BAREA] - veh[i, V_BSPRING], 0.0) \
+            * veh[i, V_BGAIN]
+        fb = 0.0
+        if fc > 0.0:
+            shoe = fc * veh[i, V_BINVSHOES]
+            fb = -brake_retardation(v, fc * shoe_friction(i, v, shoe, veh, ctab), vs)
+        w.bforce[i] = fb
+        res[i] += fb
+    leak = pipe_rates(p, y[zq:zq + nc - 1], inflow, gas[A_AREA], air.dx_cell, air.dx_face,
+                      gas[A_DIAM], gas[A_ROUGH], gas[A_VISC], air.leak, gamma, r_gas, temp,
+                      atm, r_lin, dy[zp:zq], dy[zq:zq + nc - 1])
+    dy[zx] = exhausted + leak
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -640,6 +810,19 @@ def _push_event(ctl, t, level):
     return True
 
 
+@njit(cache=True, inline="always")
+def _push_command(ctl, t, tab, o, m, k):
+    """Append scheduled brake command ``k`` of the ``m`` stored from ``tab[o]`` (one
+    column after the other, :data:`ltdsim.layout.EVENT_COLUMNS`) at time ``t`` (s);
+    False when the event store is full."""
+    if not _push_event(ctl, t, tab[o + m + k]):
+        return False
+    e = ctl.state[0]["n_events"] - 1
+    ctl.events[e, EV_KIND] = tab[o + 2 * m + k]
+    ctl.events[e, EV_VALUE] = tab[o + 3 * m + k]
+    return True
+
+
 @njit(cache=True, _nrt=False, forceinline=True)
 def _brake_commands(t, horizon, y, ctl, tr, dr, w, sampled):
     """Issue the brake commands due at the start of a step at ``t`` (s).
@@ -660,7 +843,7 @@ def _brake_commands(t, horizon, y, ctl, tr, dr, w, sampled):
         o = int(drv[D_BSOFF])
         k = st["next_scheduled"]
         while k < m and ctab[o + k] < t + horizon:
-            if not _push_event(ctl, ctab[o + k], ctab[o + m + k]):
+            if not _push_command(ctl, ctab[o + k], ctab, o, m, k):
                 return -1
             issued += 1
             k += 1
@@ -671,7 +854,7 @@ def _brake_commands(t, horizon, y, ctl, tr, dr, w, sampled):
         k = st["next_position"]
         lead = veh[0, V_P0] + y[0]
         while k < m and ctab[o + k] <= lead:
-            if not _push_event(ctl, t, ctab[o + m + k]):
+            if not _push_command(ctl, t, ctab, o, m, k):
                 return -1
             issued += 1
             k += 1
@@ -1104,6 +1287,20 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
             zb = int(veh[i, V_BZ])
             out.b[r, i] = w.bforce[i] if zb >= 0 else 0.0
             out.p[r, i] = y[zb] if zb >= 0 else 0.0
+    if out.bp.shape[1] > 0:  # the fluid brake
+        atm = tr.air.gas[A_ATM]
+        zp = tr.air.index[I_PIPE]
+        for i in range(n):
+            zb = int(veh[i, V_BZ])
+            out.bp[r, i] = y[zp + int(veh[i, V_BCELL])] - atm
+            if zb >= 0:
+                out.ar[r, i] = y[zb + CV_AUX] - atm
+                out.bc[r, i] = y[zb + CV_CYL] - atm
+                out.p[r, i] = out.bc[r, i] / veh[i, V_BPFS]
+            else:
+                out.ar[r, i] = np.nan
+                out.bc[r, i] = np.nan
+        out.ax[r, 0] = y[tr.air.index[I_EXH]]
     if out.c.shape[1] > 0:
         for c in range(cons.shape[0]):
             out.c[r, c] = w.fcons[c]

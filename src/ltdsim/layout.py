@@ -37,13 +37,19 @@ def layout(*names: str, start: int = 0) -> range:
 #: state index in y (-1 unbraked), full-application shoe force N (cylinder force x rigging
 #: ratio), force per shoe at full application N, friction model code, constant mu -,
 #: friction table offset and length in the table store, brake-pipe signal delay from the
-#: nearest control point s
+#: nearest control point s. Fluid brake (``brake.model = "fluid"``; the brake state index
+#: is then the first of the vehicle's control-valve states): the pipe cell its valve
+#: connects to (every vehicle: where its pipe pressure is read), its control-valve row in
+#: ``AirBrake.cv``, piston area m^2, return spring N, efficiency x rigging ratio -, 1 /
+#: shoes -, and the cylinder pressure of a full service Pa gauge (for the fill)
 VEHICLE_COLUMNS = ("mass", "weight_mass", "davis_a", "davis_b", "davis_c", "inv_v0",
                    "share", "p0", "consist", "brake_state", "brake_full", "brake_shoe",
                    "brake_friction", "brake_mu", "brake_table", "brake_table_len",
-                   "brake_delay")
+                   "brake_delay", "pipe_cell", "valve_row", "piston_area", "return_spring",
+                   "brake_gain", "inv_shoes", "full_service_pressure")
 (V_MASS, V_WMASS, V_DA, V_DB, V_DC, V_DIV0, V_SHARE, V_P0, V_CONS, V_BZ, V_BFULL, V_BSHOE,
- V_BFRIC, V_BMU, V_BTAB, V_BNTAB, V_BDELAY) = layout(*VEHICLE_COLUMNS)
+ V_BFRIC, V_BMU, V_BTAB, V_BNTAB, V_BDELAY, V_BCELL, V_BCV, V_BAREA, V_BSPRING, V_BGAIN,
+ V_BINVSHOES, V_BPFS) = layout(*VEHICLE_COLUMNS)
 N_VCOL = len(VEHICLE_COLUMNS)
 
 #: locomotive consist table: traction curve (largest force N, power W, adhesion mass kg),
@@ -76,12 +82,44 @@ DRIVER_SLOTS = ("mode", "kp", "ki", "kd", "n", "ts", "integrator", "filter",
                 "brake_schedule", "brake_schedule_len", "brake_positions",
                 "brake_positions_len", "brake_controller", "brake_step", "apply_tau",
                 "release_tau", "standstill_speed", "shoe_force_ref", "full_shoe_sum",
-                "anti_windup")
+                "anti_windup", "brake_model")
 (D_MODE, D_KP, D_KI, D_KD, D_N, D_TS, D_INT, D_FILT,
  D_BSOFF, D_BSLEN, D_BPOFF, D_BPLEN, D_BCTRL, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
- D_BSHOEREF, D_BFULLSUM, D_AW) = layout(*DRIVER_SLOTS)
+ D_BSHOEREF, D_BFULLSUM, D_AW, D_BMODEL) = layout(*DRIVER_SLOTS)
 N_DRV = len(DRIVER_SLOTS)
+
+#: brake models (the ``D_BMODEL`` slot)
+BRAKE_MODELS = ("lumped", "fluid")
+BRAKE_LUMPED, BRAKE_FLUID = layout(*BRAKE_MODELS)
+
+#: fluid brake's gas and pipe constants (``AirBrake.gas``): ratio of specific heats -,
+#: gas constant J/(kg K), temperature K, atmosphere Pa abs, the orifice law's linear
+#: ratio -, dynamic viscosity Pa s, pipe bore area m^2, bore diameter m, wall roughness m
+AIR_SLOTS = ("gamma", "r_gas", "temperature", "atmosphere", "r_lin", "viscosity",
+             "area", "diameter", "roughness")
+(A_GAMMA, A_RGAS, A_TEMP, A_ATM, A_RLIN, A_VISC, A_AREA, A_DIAM, A_ROUGH) = layout(*AIR_SLOTS)
+N_AIR = len(AIR_SLOTS)
+
+#: fluid brake's state offsets and counts (``AirBrake.index``, int64): first pipe cell
+#: pressure, number of cells, first control-valve state, first driver's-valve state,
+#: the exhausted-air accumulator, number of brake-control points
+AIR_INDEX = ("pipe", "cells", "valves", "drivers", "exhausted", "control_points")
+(I_PIPE, I_CELLS, I_CV, I_DV, I_EXH, I_NCP) = layout(*AIR_INDEX)
+N_AIR_INDEX = len(AIR_INDEX)
 
 #: driver modes (the ``D_MODE`` slot)
 DRIVER_MODES = ("speed", "force", "notch")
 MODE_SPEED, MODE_FORCE, MODE_NOTCH = layout(*DRIVER_MODES)
+
+#: columns of a brake command (the kernel's event store, and the brake schedules in the
+#: table store, one column after the other): time s (schedules: time s or the lead's
+#: position m), brake level 0-1, kind (``CMD_*``), value (a service reduction, Pa)
+EVENT_COLUMNS = ("time", "level", "kind", "value")
+(EV_TIME, EV_LEVEL, EV_KIND, EV_VALUE) = layout(*EVENT_COLUMNS)
+N_EVENT_COLUMNS = len(EVENT_COLUMNS)
+#: kinds of brake command: by the level alone (brake_profile, brake_positions, the speed
+#: controller; the fluid brake makes a level L > 0 a service reduction of L x the
+#: full-service one and 0 a release), release, service (value: the reduction, Pa),
+#: emergency
+COMMAND_KINDS = ("level", "release", "service", "emergency")
+CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, CMD_EMERGENCY = layout(*COMMAND_KINDS)

@@ -8,13 +8,16 @@ array layout (:mod:`ltdsim.layout` for the vehicle, consist, traction and driver
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ltdsim.coupler_models import N_CCOL, P_D0, lower_coupler
 from ltdsim.integrators import BS23, Tableau, get_tableau
 from ltdsim.layout import (
+    CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, N_EVENT_COLUMNS, A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
+    D_BMODEL, I_CELLS, I_CV, I_DV, I_EXH, I_NCP, I_PIPE, N_AIR, N_AIR_INDEX, V_BAREA, V_BCELL,
+    V_BCV, V_BGAIN, V_BINVSHOES, V_BPFS, V_BSPRING,
     D_AW, D_BCTRL, D_BFULLSUM, D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP,
     D_BTAUA, D_BTAUR, D_BVS, D_FILT, D_MODE, K_DBFADE, K_FMAX, K_MADH, K_NLEN, K_NOFF,
     K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH, K_Z, MODE_FORCE, MODE_NOTCH, MODE_SPEED, N_DRV,
@@ -31,6 +34,13 @@ from ltdsim.scenario import Scenario
 #: N/m: force states enter the bs23 error norm as force / FORCE_SCALE, so ``atol`` reads
 #: as metres of gear deflection for them too (1e-6 m -> 1 N)
 FORCE_SCALE = 1.0e6
+#: Pa/m: pressure states (fluid brake) enter the bs23 error norm as pressure /
+#: PRESSURE_SCALE (atol 1e-6 -> 1 Pa, 1e-4 -> 1 mbar)
+PRESSURE_SCALE = 1.0e6
+#: kg/(s m): the pipe's face mass flows enter it as flow / FLOW_SCALE (atol 1e-6 ->
+#: 1e-5 kg/s); a flow error of 1e-3 kg/s held over a 1 ms step moves a 7.5 m cell of a
+#: 32 mm pipe by about 15 Pa
+FLOW_SCALE = 10.0
 #: largest number of brake commands (events) one run can issue
 MAX_EVENTS = 4096
 
@@ -61,10 +71,28 @@ class Lowered:
     rtol: np.ndarray  # bs23 relative tolerance per state element (0 for positions)
     max_step: float
     adaptive: bool
+    # the fluid brake (brake.model = "fluid"; empty for the lumped brake): gas and pipe
+    # constants (layout.AIR_SLOTS), state offsets (layout.AIR_INDEX), cell lengths m,
+    # centre distances m, leak Cd x area per cell m^2, control-valve rows (one per
+    # braked vehicle, brakevalves.CV_PARAMS), driver's-valve rows (one per brake-control
+    # point, DV_PARAMS) and the cell each driver's valve feeds
+    air_gas: np.ndarray = field(default_factory=lambda: np.zeros(N_AIR))
+    air_index: np.ndarray = field(default_factory=lambda: np.full(N_AIR_INDEX, -1, np.int64))
+    pipe_dx_cell: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    pipe_dx_face: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    pipe_leak: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cv_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    dv_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
+    dv_cell: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
 
     @property
     def n(self) -> int:
         return self.veh.shape[0]
+
+    @property
+    def fluid(self) -> bool:
+        """True for the fluid-dynamic air brake."""
+        return bool(self.drv[D_BMODEL] == BRAKE_FLUID)
 
     @property
     def braked(self) -> bool:
@@ -192,18 +220,40 @@ def lower(s: Scenario) -> Lowered:
 
     # air brakes
     b = s.brake
-    control_points = [p0[int(cons[0, K_VEH])]] + [
-        p0[int(cons[k, K_VEH])] for k, loco in enumerate(consists) if k > 0 and loco.brake_control]
+    fluid = b.model == "fluid"
+    control = [int(cons[0, K_VEH])] + [
+        int(cons[k, K_VEH]) for k, loco in enumerate(consists) if k > 0 and loco.brake_control]
+    control_points = [p0[i] for i in control]
+    air = _fluid_rows(s, lengths, control) if fluid else None
     shoe_forces = []
     for i, v in enumerate(s.vehicles):
+        if air is not None:
+            veh[i, V_BCELL] = air["geometry"].vehicle_cell[i]
         if v.brake is None:
             continue
         vb = v.brake
         veh[i, V_BZ] = ny
-        ny += 1
-        y0_extra.append(0.0)
-        kinds.append("fill")
-        veh[i, V_BFULL] = vb.cylinder_force * vb.rigging_ratio
+        if air is None:
+            ny += 1
+            y0_extra.append(0.0)
+            kinds.append("fill")
+            veh[i, V_BFULL] = vb.cylinder_force * vb.rigging_ratio
+        else:
+            k = len(shoe_forces)
+            p_fs = air["full_service"]
+            area = vb.piston_area
+            if area is None:  # the full service gives cylinder_force (common15.md)
+                area = (vb.cylinder_force / vb.efficiency + vb.return_spring) / p_fs
+            veh[i, V_BCV] = k
+            veh[i, V_BAREA] = area
+            veh[i, V_BSPRING] = vb.return_spring
+            veh[i, V_BGAIN] = vb.efficiency * vb.rigging_ratio
+            veh[i, V_BINVSHOES] = 1.0 / vb.shoes
+            veh[i, V_BPFS] = p_fs
+            veh[i, V_BFULL] = max(p_fs * area - vb.return_spring, 0.0) * veh[i, V_BGAIN]
+            ny += len(air["cv_init"])
+            y0_extra.extend(air["cv_init"])
+            kinds.extend(air["cv_kinds"])
         veh[i, V_BSHOE] = veh[i, V_BFULL] / vb.shoes
         shoe_forces.append(veh[i, V_BSHOE])
         if vb.friction_table is not None:
@@ -216,14 +266,21 @@ def lower(s: Scenario) -> Lowered:
         else:
             veh[i, V_BFRIC] = FRICTION_CONSTANT
             veh[i, V_BMU] = float(vb.friction)
-        if b.mode == "pneumatic":
+        if b.mode == "pneumatic" and not fluid:
             veh[i, V_BDELAY] = min(abs(p0[i] - c) for c in control_points) / b.propagation_speed
-    for key, col_off, col_len in (("brake_profile", D_BSOFF, D_BSLEN),
-                                  ("brake_positions", D_BPOFF, D_BPLEN)):
-        pts = getattr(d, key)
-        if pts:
-            arr = np.asarray(pts, dtype=float)
-            drv[col_off] = _append(tables, [*arr[:, 0], *arr[:, 1]])
+    fluid_extra = {}
+    if air is not None:
+        fluid_extra, ny = _fluid_states(air, len(shoe_forces), len(control), ny, y0_extra,
+                                        kinds)
+        braked = veh[:, V_BZ] >= 0
+        veh[braked, V_BZ] += 2 * fluid_extra["pipe_dx_cell"].size - 1  # (the pipe before)
+        drv[D_BMODEL] = BRAKE_FLUID
+    for key, col_off, col_len in (("time", D_BSOFF, D_BSLEN),
+                                  ("position", D_BPOFF, D_BPLEN)):
+        rows = brake_schedule(s, key, air["dv_row"] if air is not None else None)
+        if rows:
+            arr = np.asarray(rows, dtype=float)  # (m, N_EVENT_COLUMNS)
+            drv[col_off] = _append(tables, arr.T.ravel())  # each column in turn
             drv[col_len] = len(arr)
     drv[D_BCTRL] = 1.0 if d.brake_controller else 0.0
     drv[D_BSTEP] = b.level_step
@@ -236,9 +293,13 @@ def lower(s: Scenario) -> Lowered:
     y0[n:2 * n] = s.initial.speed if s.initial.velocities is None else s.initial.velocities
     y0[2 * n:] = y0_extra
     sv = s.solver
-    scale = {"x": sv.atol, "v": sv.atol, "force": sv.atol * FORCE_SCALE, "fill": sv.atol}
+    scale = {"x": sv.atol, "v": sv.atol, "force": sv.atol * FORCE_SCALE, "fill": sv.atol,
+             "pressure": sv.atol * PRESSURE_SCALE, "flow": sv.atol * FLOW_SCALE,
+             "position": sv.atol,
+             # a running total of flows the other states control; it feeds nothing back
+             "exhausted": np.inf}
     atol = np.array([scale[k] for k in kinds])
-    rtol = np.array([0.0 if k == "x" else sv.rtol for k in kinds])
+    rtol = np.array([0.0 if k in ("x", "exhausted") else sv.rtol for k in kinds])
     return Lowered(
         veh=veh, cons=cons, cpl_model=cpl_model, cpl=cpl,
         track_pos=track_pos, track_grade=track_grade, track_curv=track_curv,
@@ -248,7 +309,163 @@ def lower(s: Scenario) -> Lowered:
         tableau=BS23 if sv.adaptive else get_tableau(sv.method), dt=float(sv.dt),
         n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
         atol=atol, rtol=rtol, max_step=float(sv.max_step), adaptive=sv.adaptive,
+        **fluid_extra,
     )
+
+
+def full_service_pressure(cv_row: np.ndarray, dv_row: np.ndarray) -> float:
+    """Brake-cylinder pressure of a full service, Pa gauge, of the control valve
+    ``cv_row`` (:data:`ltdsim.physics.brakevalves.CV_PARAMS`) under the driver's valve
+    ``dv_row`` (``DV_PARAMS``).
+
+    UIC (three-pressure) valves: their ``max_cylinder``. AAR (triple-valve) valves: the
+    auxiliary reservoir's air that the full-service reduction ``r`` moves into the
+    cylinder, ``r V_aux / V_cyl``, at most the equalisation of the two volumes from the
+    regulated pressure ``p_reg``, ``p_reg V_aux / (V_aux + V_cyl)`` (Boyle's law at
+    constant temperature; the quick-service draw from the pipe is left out)."""
+    from ltdsim.physics.brakevalves import CV_PARAMS, DV_PARAMS, FAMILY_UIC
+
+    cv = dict(zip(CV_PARAMS, cv_row))
+    dv = dict(zip(DV_PARAMS, dv_row))
+    if cv["family"] == FAMILY_UIC:
+        return float(cv["max_cylinder"])
+    va, vc = cv["auxiliary_volume"], cv["cylinder_volume"]
+    return float(min(dv["full_reduction"] * va / vc, dv["regulated"] * va / (va + vc)))
+
+
+def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
+    """The fluid brake's valve rows, initial valve states, pipe grid and gas row."""
+    from ltdsim.physics.brakepipe import pipe_geometry
+    from ltdsim.physics.brakevalves import (
+        DV_PARAMS, control_valve_init, control_valve_row, driver_valve_init, driver_valve_row)
+    from ltdsim.scenario import valve_tables
+
+    fl = s.brake.fluid
+    a = s.brake.air
+    cv_table, dv_table = valve_tables(fl)
+    cv_row = control_valve_row(cv_table)
+    dv_row = driver_valve_row(dv_table)
+    p_abs = a.atmosphere + float(dv_table["regulated"])
+    geom = pipe_geometry(lengths, fl.cells_per_vehicle)
+    gas = np.zeros(N_AIR)
+    gas[[A_GAMMA, A_RGAS, A_TEMP, A_ATM, A_RLIN, A_VISC]] = (
+        a.gamma, a.gas_constant, a.temperature, a.atmosphere, a.linear_ratio, a.viscosity)
+    gas[A_AREA] = np.pi * fl.pipe_diameter ** 2 / 4.0
+    gas[A_DIAM] = fl.pipe_diameter
+    gas[A_ROUGH] = fl.roughness
+    cv_init = control_valve_init(p_abs, cv_row, a.atmosphere)
+    dv_init = driver_valve_init(p_abs, dv_row, a.atmosphere)
+    return {
+        "geometry": geom, "gas": gas, "p_abs": p_abs, "cv_row": cv_row, "dv_row": dv_row,
+        "cv_init": [float(x) for x in cv_init], "dv_init": [float(x) for x in dv_init],
+        # a state that starts at a pressure (Pa abs) is one; the others are positions (-)
+        "cv_kinds": [_valve_kind(x) for x in cv_init],
+        "dv_kinds": [_valve_kind(x) for x in dv_init],
+        "full_service": full_service_pressure(cv_row, dv_row),
+        "leak": np.full(geom.dx_cell.size, fl.leakage / fl.cells_per_vehicle),
+        "dv_cell": np.array([geom.vehicle_first[i] for i in control], dtype=np.int64),
+        "p_main": a.atmosphere + float(dict(zip(DV_PARAMS, dv_row))["main_initial"]),
+    }
+
+
+def lower_fluid_parts(s: Scenario) -> dict:
+    """The fluid brake's pipe grid (``geometry``), valve rows (``cv_row``, ``dv_row``),
+    leak per cell (``leak``, m^2), charged pipe pressure (``p_abs``) and main-reservoir
+    pressure (``p_main``, Pa abs) of scenario ``s`` (``brake.model = "fluid"``), without
+    lowering the rest (the step check's input)."""
+    lengths = np.array([v.length for v in s.vehicles])
+    consists = s.consists()
+    control = [consists[0].vehicles[0]] + [
+        loco.vehicles[0] for k, loco in enumerate(consists) if k > 0 and loco.brake_control]
+    return _fluid_rows(s, lengths, control)
+
+
+def _valve_kind(x0: float) -> str:
+    """Error-scale kind of a valve state from its initial value: a pressure (Pa abs,
+    at least a tenth of an atmosphere) or a position (-)."""
+    return "pressure" if x0 > 1.0e4 else "position"
+
+
+def _fluid_states(air: dict, n_valves: int, n_control: int, ny: int, y0_extra: list,
+                  kinds: list) -> tuple[dict, int]:
+    """Append the pipe, driver's-valve and exhausted-air states after the control valves
+    (already appended at ``[ny - n_valves N_CV, ny)``); returns the ``Lowered`` fields
+    of the fluid brake and the new state count. Layout (common15.md): pipe cell
+    pressures (nc), face flows (nc - 1), control valves, driver's valves, exhausted air."""
+    geom = air["geometry"]
+    nc = geom.dx_cell.size
+    n_cv = len(air["cv_init"])
+    z_cv = ny - n_valves * n_cv
+    # the pipe goes in front of the control valves: shift their indices
+    index = np.zeros(N_AIR_INDEX, dtype=np.int64)
+    index[I_PIPE] = z_cv
+    index[I_CELLS] = nc
+    index[I_CV] = z_cv + 2 * nc - 1
+    pipe = [air["p_abs"]] * nc + [0.0] * (nc - 1)
+    at = len(y0_extra) - n_valves * n_cv
+    y0_extra[at:at] = pipe
+    k_at = len(kinds) - n_valves * n_cv
+    kinds[k_at:k_at] = ["pressure"] * nc + ["flow"] * (nc - 1)
+    ny += 2 * nc - 1
+    index[I_DV] = ny
+    for _ in range(n_control):
+        y0_extra.extend(air["dv_init"])
+        kinds.extend(air["dv_kinds"])
+    ny += n_control * len(air["dv_init"])
+    index[I_EXH] = ny
+    y0_extra.append(0.0)
+    kinds.append("exhausted")
+    ny += 1
+    index[I_NCP] = n_control
+    return {
+        "air_gas": air["gas"], "air_index": index,
+        "pipe_dx_cell": np.ascontiguousarray(geom.dx_cell, dtype=float),
+        "pipe_dx_face": np.ascontiguousarray(geom.dx_face, dtype=float),
+        "pipe_leak": air["leak"],
+        "cv_rows": np.tile(air["cv_row"], (n_valves, 1)),
+        "dv_rows": np.tile(air["dv_row"], (n_control, 1)),
+        "dv_cell": air["dv_cell"],
+    }, ny
+
+
+def brake_schedule(s: Scenario, key: str, dv_row: np.ndarray | None) -> list[list[float]]:
+    """The driver's brake commands by ``key`` ("time" s or "position" m of the lead),
+    sorted: ``brake_profile`` (or ``brake_positions``) and ``brake_commands``, each as
+    ``[key, level, kind, value]`` (:data:`N_EVENT_COLUMNS`, ``CMD_*`` kinds). The lumped
+    brake (``dv_row`` None) takes handles as levels (release 0, minimum
+    ``brake.minimum_level``, full and emergency 1); the fluid brake a level L as a
+    service reduction of L x the full-service one (0: release), a handle as the driver's
+    valve's reduction (``dv_row``, ``DV_PARAMS``)."""
+    d = s.driver
+    points = d.brake_profile if key == "time" else d.brake_positions
+    rows = [[float(x), float(level), float(CMD_LEVEL), 0.0] for x, level in points or []]
+    full = minimum = 0.0
+    if dv_row is not None:
+        from ltdsim.physics.brakevalves import DV_PARAMS
+
+        dv = dict(zip(DV_PARAMS, dv_row))
+        full, minimum = float(dv["full_reduction"]), float(dv["minimum_reduction"])
+    for c in d.brake_commands or []:
+        x = getattr(c, key)
+        if x is None:
+            continue
+        if dv_row is None:  # lumped: levels (a reduction is refused on load)
+            level = {"release": 0.0, "minimum": s.brake.minimum_level, "full": 1.0,
+                     "emergency": 1.0}[c.handle]
+            rows.append([float(x), level, float(CMD_LEVEL), 0.0])
+            continue
+        if c.reduction is not None:
+            red = float(c.reduction)
+        else:
+            red = {"release": 0.0, "minimum": minimum, "full": full, "emergency": 0.0}[c.handle]
+        if c.handle == "emergency":
+            rows.append([float(x), 1.0, float(CMD_EMERGENCY), 0.0])
+        elif red <= 0.0:
+            rows.append([float(x), 0.0, float(CMD_RELEASE), 0.0])
+        else:
+            rows.append([float(x), min(red / full, 1.0), float(CMD_SERVICE), red])
+    rows.sort(key=lambda r: r[0])  # (stable: a profile point before a command at one time)
+    return rows
 
 
 def rounded_profile(points, step: float = 0.02) -> tuple[np.ndarray, np.ndarray]:

@@ -148,11 +148,16 @@ class Davis(_Strict):
 
 class VehicleBrake(_Strict):
     """Tread brake of one vehicle: retarding force = cylinder force x rigging ratio x
-    shoe friction coefficient, scaled by the cylinder's fill (0-1)."""
+    shoe friction coefficient. Lumped brake (``brake.model = "lumped"``): the cylinder
+    force is ``cylinder_force`` scaled by the cylinder's fill (0-1). Fluid brake: it is
+    ``max(0, p x piston_area - return_spring) x efficiency``, ``p`` the cylinder's
+    gauge pressure."""
 
-    cylinder_force: float = Field(gt=0.0, le=1e6,
-                                  description="piston force at full application (pressure x "
-                                              "area x efficiency), N")
+    cylinder_force: float | None = Field(
+        None, gt=0.0, le=1e6,
+        description="piston force at full application (pressure x area x efficiency); "
+                    "required by the lumped brake; fluid brake: the force a full service "
+                    "gives, from which piston_area is derived when that is left out, N")
     rigging_ratio: float = Field(gt=0.0, le=100.0,
                                  description="total shoe force / piston force, -")
     shoes: int = Field(8, ge=1, le=64, description="number of shoes sharing the shoe force "
@@ -164,6 +169,18 @@ class VehicleBrake(_Strict):
     friction_table: Points | None = Field(
         None, description="[speed m/s, mu -] points, linear between, constant outside; speeds "
                           "strictly increasing, mu in [0, 1]; replaces friction")
+    piston_area: float | None = Field(
+        None, gt=0.0, le=1.0,
+        description="fluid brake: brake-cylinder piston area, m^2 (none: derived so that the "
+                    "valve preset's full-service cylinder pressure gives cylinder_force: "
+                    "(cylinder_force / efficiency + return_spring) / pressure)")
+    return_spring: float = Field(0.0, ge=0.0, le=1e5,
+                                 description="fluid brake: force of the piston's return "
+                                             "spring, subtracted from pressure x area, N")
+    efficiency: float = Field(1.0, gt=0.0, le=1.0,
+                              description="fluid brake: rigging efficiency (piston force "
+                                          "reaching the rigging / pressure x area less the "
+                                          "spring), -")
 
     @field_validator("friction_table")
     @classmethod
@@ -171,6 +188,13 @@ class VehicleBrake(_Strict):
         if v is None:
             return v
         return _check_table(v, "speeds, m/s", lambda m: 0.0 <= m <= 1.0, "in [0, 1]")
+
+    @model_validator(mode="after")
+    def _force_or_area(self):
+        if self.cylinder_force is None and self.piston_area is None:
+            raise ValueError("give cylinder_force (N) or, for the fluid brake, piston_area "
+                             "(m^2)")
+        return self
 
 
 class Vehicle(_Strict):
@@ -670,8 +694,156 @@ class Locomotive(_Strict):
         return _check_notches(v)
 
 
+
+def _brake_presets() -> list[str]:
+    """Names of the shipped valve presets of the fluid brake (``data/brakes/*.toml``)."""
+    from ltdsim.physics.brakevalves import brake_presets
+
+    return brake_presets()
+
+
+@functools.cache
+def _read_brake_preset(name: str) -> dict:
+    from ltdsim.physics.brakevalves import load_brake_preset
+
+    return load_brake_preset(name)
+
+
+def valve_tables(fluid: "FluidBrake") -> tuple[dict, dict]:
+    """The ``[control_valve]`` and ``[driver_valve]`` tables of ``brake.fluid.valve``: a
+    preset's, or an inline table's keys over its ``preset`` (if any); each checked by
+    the valves' row builders. Raises ``ValueError`` in one line naming the key."""
+    from ltdsim.physics.brakevalves import control_valve_row, driver_valve_row
+
+    valve = fluid.valve
+    if isinstance(valve, str):
+        valve = {"preset": valve}
+    unknown = sorted(set(valve) - {"preset", "control_valve", "driver_valve"})
+    if unknown:
+        raise ValueError(f"brake.fluid.valve: unknown key {unknown[0]!r}; allowed: preset, "
+                         "control_valve, driver_valve")
+    base: dict = {"control_valve": {}, "driver_valve": {}}
+    name = valve.get("preset")
+    if name is not None:
+        names = _brake_presets()
+        if not isinstance(name, str) or name not in names:
+            raise ValueError(f"brake.fluid.valve: unknown preset {name!r}; available: "
+                             f"{', '.join(names) or 'none (this install lacks its package data)'}")
+        base = copy.deepcopy(_read_brake_preset(name))
+    tables = []
+    for key in ("control_valve", "driver_valve"):
+        own = valve.get(key, {})
+        if not isinstance(own, dict):
+            raise ValueError(f"brake.fluid.valve.{key}: must be a table")
+        merged = {**base.get(key, {}), **own}
+        tables.append(merged)
+    cv, dv = tables
+    if fluid.regulated_pressure is not None:
+        dv = {**dv, "regulated": fluid.regulated_pressure}
+    try:
+        control_valve_row(cv)
+    except ValueError as exc:
+        raise ValueError(f"brake.fluid.valve: {exc}") from None
+    try:
+        driver_valve_row(dv)
+    except ValueError as exc:
+        raise ValueError(f"brake.fluid.valve: {exc}") from None
+    return cv, dv
+
+
+#: handle positions of ``driver.brake_commands``
+HANDLES = ("release", "minimum", "full", "emergency")
+
+
+class BrakeCommand(_Strict):
+    """One brake command of the driver: when (time or lead position) and what (handle
+    position or pipe reduction)."""
+
+    time: float | None = Field(None, ge=0.0, le=1e7,
+                               description="issued at this time, s (give time or position)")
+    position: float | None = Field(None, ge=-1e8, le=1e8,
+                                   description="issued when the lead vehicle's centre "
+                                               "passes this track position, m")
+    handle: Literal["release", "minimum", "full", "emergency"] | None = Field(
+        None, description="driver's-valve handle: release, minimum (first service "
+                          "reduction), full (full service), emergency (give handle or "
+                          "reduction); lumped brake: levels 0, brake.minimum_level, 1, 1")
+    reduction: float | None = Field(
+        None, gt=0.0, le=1e6,
+        description="fluid brake: service reduction of the pipe below its regulated "
+                    "pressure, Pa (a reduction beyond the full-service one gives full "
+                    "service)")
+
+    @model_validator(mode="after")
+    def _one_each(self):
+        if (self.time is None) == (self.position is None):
+            raise ValueError("a brake command needs exactly one of time (s) and position (m)")
+        if (self.handle is None) == (self.reduction is None):
+            raise ValueError("a brake command needs exactly one of handle ('release', "
+                             "'minimum', 'full', 'emergency') and reduction (Pa)")
+        return self
+
+
+class FluidBrake(_Strict):
+    """The fluid-dynamic air brake's pipe and valves (``brake.model = "fluid"``)."""
+
+    valve: Union[str, dict[str, Any]] | None = Field(
+        None, description="valve preset (data/brakes: 'uic-g', 'uic-p', 'aar') giving every "
+                          "braked vehicle's control valve and every brake-control point's "
+                          "driver's valve, or an inline table {preset = NAME, control_valve = "
+                          "{...}, driver_valve = {...}} whose keys replace the preset's "
+                          "(without preset it must give every key); required by the fluid "
+                          "brake")
+    pipe_diameter: float = Field(0.0318, ge=0.01, le=0.1,
+                                 description="inner diameter of the brake pipe (1 1/4 in "
+                                             "by default), m")
+    cells_per_vehicle: int = Field(2, ge=1, le=20,
+                                   description="finite-volume cells of the pipe per vehicle "
+                                               "(each vehicle's pipe is its length over "
+                                               "couplers)")
+    roughness: float = Field(4.6e-5, ge=0.0, le=1e-3,
+                             description="wall roughness of the pipe (commercial steel "
+                                         "4.6e-5), m")
+    leakage: float = Field(0.0, ge=0.0, le=1e-4,
+                           description="leak to atmosphere per vehicle as discharge "
+                                       "coefficient x area, shared by its cells, m^2 (0: "
+                                       "tight; a 1 mm hole at Cd 0.6 is 4.7e-7)")
+    regulated_pressure: float | None = Field(
+        None, ge=1e5, le=1.2e6,
+        description="pipe pressure the driver's valves charge to (none: the preset's "
+                    "driver_valve.regulated), Pa (gauge)")
+
+
+class Air(_Strict):
+    """Gas data of the fluid air brake: isothermal air."""
+
+    gamma: float = Field(1.4, gt=1.0, le=1.67,
+                         description="ratio of specific heats (the orifice law only), -")
+    gas_constant: float = Field(287.05, gt=200.0, le=400.0,
+                                description="specific gas constant of air, J/(kg K) (dry air)")
+    temperature: float = Field(293.15, ge=223.15, le=333.15,
+                               description="temperature of the air everywhere (isothermal), "
+                                           "K")
+    atmosphere: float = Field(101325.0, ge=5e4, le=1.1e5,
+                              description="atmospheric pressure, Pa (absolute)")
+    linear_ratio: float = Field(0.995, ge=0.9, lt=1.0,
+                                description="orifice law: pressure ratio above which the "
+                                            "flow is taken linear in the pressure "
+                                            "difference, -")
+    viscosity: float = Field(1.81e-5, ge=0.0, le=1e-4,
+                             description="dynamic viscosity of air for the pipe's wall "
+                                         "friction (0: frictionless), Pa s")
+
+
 class Brake(_Strict):
-    """Train air brake: brake-pipe signal and brake-cylinder dynamics."""
+    """Train air brake: brake-pipe signal and brake-cylinder dynamics (lumped), or the
+    brake pipe's gas dynamics, valves, reservoirs and cylinders (fluid)."""
+
+    model: Literal["lumped", "fluid"] = Field(
+        "lumped", description="lumped: a command reaches each cylinder after a signal delay "
+                              "and fills it with a first-order lag; fluid: the brake pipe's "
+                              "unsteady air flow, driver's valves, control valves, reservoirs "
+                              "and cylinders ([brake.fluid], [brake.air])")
 
     mode: Literal["pneumatic", "ecp"] = Field(
         "pneumatic", description="pneumatic: a command reaches a vehicle after its distance "
@@ -692,6 +864,25 @@ class Brake(_Strict):
     level_step: float = Field(0.1, gt=0.0, le=1.0,
                               description="controller-made applications come in steps of "
                                           "this brake level, -")
+    minimum_level: float = Field(0.25, gt=0.0, le=1.0,
+                                 description="lumped brake: the brake level of handle = "
+                                             "'minimum' in driver.brake_commands (about 6 "
+                                             "of 26 psi, AAR; 0.4 of 1.5 bar, UIC), -")
+    fluid: FluidBrake | None = Field(None, description="fluid brake: pipe and valves")
+    air: Air = Field(Air(), description="fluid brake: gas data")
+
+    @model_validator(mode="after")
+    def _fluid_keys(self):
+        if self.model == "fluid":
+            if self.mode == "ecp":
+                raise ValueError("mode = 'ecp' is a lumped-brake mode: the fluid brake "
+                                 "has no electronic control (use model = 'lumped')")
+            if self.fluid is None or self.fluid.valve is None:
+                raise ValueError("model = 'fluid' needs brake.fluid.valve (a preset: "
+                                 f"{', '.join(_brake_presets()) or 'none installed'}; or a "
+                                 "table)")
+            valve_tables(self.fluid)  # names and keys checked here (one line)
+        return self
 
 
 class PID(_Strict):
@@ -758,6 +949,12 @@ class Driver(_Strict):
                                                       "the air brake when its demanded "
                                                       "braking exceeds what the dynamic "
                                                       "brakes give, in brake.level_step steps")
+    brake_commands: list[BrakeCommand] | None = Field(
+        None, description="[[driver.brake_commands]] tables: {time s or position m, handle "
+                          "or reduction Pa}, beside brake_profile and brake_positions (a "
+                          "level L there is a service reduction of L x the full-service "
+                          "one in the fluid brake); times strictly increasing, positions "
+                          "strictly increasing")
 
     @field_validator("speed_profile")
     @classmethod
@@ -805,9 +1002,21 @@ class Driver(_Strict):
             raise ValueError("brake_controller needs mode = 'speed'")
         return self
 
+    @field_validator("brake_commands")
+    @classmethod
+    def _commands(cls, v):
+        if v is None:
+            return v
+        for what in ("time", "position"):
+            xs = [getattr(c, what) for c in v if getattr(c, what) is not None]
+            if any(b <= a for a, b in zip(xs, xs[1:])):
+                raise ValueError(f"the commands' {what}s must be strictly increasing, got {xs}")
+        return v
+
     @property
     def brakes_commanded(self) -> bool:
-        return bool(self.brake_profile or self.brake_positions or self.brake_controller)
+        return bool(self.brake_profile or self.brake_positions or self.brake_controller
+                    or self.brake_commands)
 
 
 class Initial(_Strict):
@@ -914,6 +1123,7 @@ class Scenario(_Strict):
             raise ValueError(f"phases: names must differ, got {names}")
         if self.driver.brakes_commanded and not any(v.brake for v in self.vehicles):
             raise ValueError("driver: brake commands given but no vehicle has a [brake] table")
+        self._check_brake()
         pid = self.driver.pid
         if self.driver.mode == "speed" and pid is not None:
             ratio = pid.ts / self.solver.dt
@@ -941,6 +1151,30 @@ class Scenario(_Strict):
             if lim.share > 1.0:
                 raise ValueError(refusal(lim))
         return self
+
+    def _check_brake(self) -> None:
+        """The brake model's own needs: the lumped brake needs every cylinder_force and
+        takes no pipe reductions; the fluid brake's reductions stay below the regulated
+        pressure."""
+        cmds = self.driver.brake_commands or []
+        if self.brake.model == "lumped":
+            for i, v in enumerate(self.vehicles):
+                if v.brake is not None and v.brake.cylinder_force is None:
+                    raise ValueError(f"vehicles.{i}.brake.cylinder_force: required by the "
+                                     "lumped brake (brake.model = 'lumped')")
+            for k, c in enumerate(cmds):
+                if c.reduction is not None:
+                    raise ValueError(f"driver.brake_commands.{k}.reduction: a pipe reduction "
+                                     "needs brake.model = 'fluid'; the lumped brake takes "
+                                     "handle positions or brake levels")
+            return
+        _, dv = valve_tables(self.brake.fluid)
+        regulated = float(dv["regulated"])
+        for k, c in enumerate(cmds):
+            if c.reduction is not None and c.reduction >= regulated:
+                raise ValueError(f"driver.brake_commands.{k}.reduction: {c.reduction:g} Pa "
+                                 f"must be below the regulated pipe pressure, {regulated:g} "
+                                 "Pa (gauge)")
 
     def _check_locomotives(self, n: int) -> None:
         if not self.locomotives:

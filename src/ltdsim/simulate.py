@@ -12,6 +12,7 @@ import xarray as xr
 
 from ltdsim import kernel
 from ltdsim.errors import ScenarioError, SimulationError
+from ltdsim.layout import N_EVENT_COLUMNS
 from ltdsim.lowering import MAX_EVENTS, Lowered, lower
 from ltdsim.integrators import get_tableau
 from ltdsim.scenario import Scenario
@@ -40,6 +41,10 @@ UNITS = {
     "brake_force": "N",
     "brake_cylinder": "1",
     "locomotive_force": "N",
+    "brake_pipe_pressure": "Pa (gauge)",
+    "auxiliary_reservoir_pressure": "Pa (gauge)",
+    "brake_cylinder_pressure": "Pa (gauge)",
+    "air_exhausted": "kg",
 }
 
 DESCRIPTIONS = {
@@ -64,8 +69,16 @@ DESCRIPTIONS = {
     "time_min_coupler_force": "time of min_coupler_force",
     "brake_command": "brake level last commanded at the brake-control points (0-1)",
     "brake_force": "air-brake retarding force, + opposing forward motion",
-    "brake_cylinder": "brake-cylinder fill: 0 released, 1 full application",
+    "brake_cylinder": "brake-cylinder fill: 0 released, 1 full application (fluid brake: "
+                      "cylinder pressure over a full service's)",
     "locomotive_force": "traction (+) or dynamic-brake (-) force of each locomotive consist",
+    "brake_pipe_pressure": "brake-pipe pressure at the vehicle (the cell its valve "
+                           "connects to), gauge",
+    "auxiliary_reservoir_pressure": "auxiliary-reservoir pressure of the vehicle's control "
+                                    "valve, gauge (NaN: unbraked vehicle)",
+    "brake_cylinder_pressure": "brake-cylinder pressure, gauge (NaN: unbraked vehicle)",
+    "air_exhausted": "air the brake has let out to atmosphere since the start (vents, "
+                     "exhausts, leaks; less what compressors took in)",
 }
 
 ProgressFn = Callable[[float, float], None]
@@ -87,14 +100,22 @@ def recording_bytes(scenario: Scenario) -> int:
     sv = scenario.solver
     n = scenario.n_vehicles
     nc = max(n - 1, 0)
-    nb = n if any(v.brake is not None for v in scenario.vehicles) else 0
+    braked = sum(v.brake is not None for v in scenario.vehicles)
+    nb = n if braked else 0
     nk = len(scenario.consists())
     n_samples = sv.n_steps // sv.record_every + 1
     per_sample = (3 * n + 2 * nc + kernel.N_SCALARS + 2 * nb + (nk if nk > 1 else 0)
                   + 2 * n + 2)
     ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
+    cells = 0
+    if scenario.brake.model == "fluid":
+        # pipe, auxiliary reservoir and cylinder pressure per vehicle, exhausted air;
+        # the pipe's cells and faces, every valve's states, the pipe's work array
+        per_sample += 3 * n + 1
+        cells = n * scenario.brake.fluid.cells_per_vehicle
+        ny += 2 * cells + braked * kernel.N_CV + nk * kernel.N_DV + 1
     stages = 4 if sv.adaptive else get_tableau(sv.method).stages
-    work = kernel.work_size(n, ny, stages, nk) + 4 * ny + 4 * nc + n + 2 + nk
+    work = kernel.work_size(n, ny, stages, nk, cells) + 4 * ny + 4 * nc + n + 2 + nk
     return 8 * (n_samples * per_sample + work)
 
 
@@ -201,14 +222,17 @@ def _buffers(low: Lowered, n_rec: int):
     nc = max(n - 1, 0)
     nk = low.cons.shape[0]
     nb = n if low.braked else 0
+    nf = n if low.fluid else 0
     rec = {
         "x": np.empty((n_rec, n)), "v": np.empty((n_rec, n)), "a": np.empty((n_rec, n)),
         "d": np.empty((n_rec, nc)), "f": np.empty((n_rec, nc)),
         "s": np.empty((n_rec, kernel.N_SCALARS)),
         "b": np.zeros((n_rec, nb)), "p": np.zeros((n_rec, nb)),
         "c": np.zeros((n_rec, nk if nk > 1 else 0)),
+        "bp": np.zeros((n_rec, nf)), "ar": np.zeros((n_rec, nf)), "bc": np.zeros((n_rec, nf)),
+        "ax": np.zeros((n_rec, 1 if nf else 0)),
         "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
-        "events": np.zeros((MAX_EVENTS, 2)),
+        "events": np.zeros((MAX_EVENTS, N_EVENT_COLUMNS)),
     }
     y = low.y0.copy()
     ctl = kernel.make_controller(rec["events"])
@@ -216,7 +240,7 @@ def _buffers(low: Lowered, n_rec: int):
     stages = tab.stages + 1 if low.adaptive else tab.stages  # (bs23: + the step's end)
     out = kernel.Outputs(**{k: rec[k] for k in kernel.Outputs._fields})
     common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
-              kernel.make_work(n, y.shape[0], stages, nk), out)
+              kernel.make_work(n, y.shape[0], stages, nk, low.pipe_dx_cell.size), out)
     if low.adaptive:
         grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
                                h_max=low.max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
@@ -359,6 +383,11 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         data["brake_command"] = ("time", s[:, kernel.S_BRAKE])
         data["brake_force"] = (vdims, rec["b"])
         data["brake_cylinder"] = (vdims, rec["p"])
+    if rec["bp"].shape[1]:
+        data["brake_pipe_pressure"] = (vdims, rec["bp"])
+        data["auxiliary_reservoir_pressure"] = (vdims, rec["ar"])
+        data["brake_cylinder_pressure"] = (vdims, rec["bc"])
+        data["air_exhausted"] = ("time", rec["ax"][:, 0])
     if rec["c"].shape[1]:
         data["locomotive_force"] = (("time", "locomotive"), rec["c"])
         coords["locomotive"] = ("locomotive", [c.name for c in scenario.consists()])
@@ -387,6 +416,7 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         "steps": rec["steps"][0],
         "rejected_steps": rec["steps"][1],
         "brake_commands": rec["n_events"],
+        "brake_model": scenario.brake.model,
         "wall_time_s": wall,
         "compile_time_s": compile_time,
         "scenario_json": json.dumps(scenario.to_dict()),

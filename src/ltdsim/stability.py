@@ -24,6 +24,14 @@ First-order lags (the hysteretic gears' internal-force tracking, the brake cylin
 the traction lag) are real eigenvalues ``-1/tau``; they are stable for
 ``h <= r_real tau`` with ``r_real`` = 2 (euler, heun), 2.51 (ode3), 2.79 (rk4).
 
+The fluid air brake adds the brake pipe's waves and the valves' fills. The pipe's
+fastest rate (:func:`ltdsim.physics.brakepipe.pipe_max_rate`, 1/s) bounds its
+eigenvalues, which lie near the imaginary axis (sound waves, lightly damped by wall
+friction); it is taken as an undamped oscillation, evaluated with the flow of an
+emergency vent (Mach 0.6) in every face, so ``h <= r_imag / rate``: euler and heun have no
+stable step for it. Each valve's fastest rate (``valve_max_rate``, 1/s) is a first-order
+lag of ``tau = 1 / rate``.
+
 The coupling at its stiffest (N/m): linear ``stiffness``; simplified ``max(k1, k2 + k3)``;
 friction_wedge and table ``k_locked`` plus the steepest slope of their loading and
 unloading curves (a locked gear crosses the band at ``k_locked`` relative to it); and, where
@@ -145,6 +153,7 @@ class StepLimit:
     k_max: float  #: stiffest coupling, N/m
     lag: tuple[str, float] | None  #: the fastest first-order lag (its key, tau s), if any
     others: dict  #: the largest stable step of every fixed-step method, s
+    pipe: float = 0.0  #: fastest rate of the fluid brake's pipe, 1/s (0: lumped brake)
 
     @property
     def share(self) -> float:
@@ -156,11 +165,16 @@ class StepLimit:
         osc = (f"the train's highest natural frequency, {self.omega / (2 * math.pi):.3g} Hz "
                f"(every coupling at its stiffest, up to {self.k_max:.3g} N/m; damping ratio "
                f"{self.zeta:.2g})")
+        mode = mode_step_limit(self.method, self.omega, self.zeta)
+        pipe = imaginary_radius(self.method) / self.pipe if self.pipe > 0.0 else math.inf
         if self.lag is not None:
             what, tau = self.lag
             lag_limit = real_radius(self.method) * tau
-            if lag_limit <= mode_step_limit(self.method, self.omega, self.zeta):
+            if lag_limit <= mode and lag_limit <= pipe:
                 return f"the first-order lag {what} = {tau:.3g} s"
+        if pipe < mode:
+            return (f"the brake pipe's fastest wave, {self.pipe:.3g} 1/s (its cells, "
+                    "brake.fluid.cells_per_vehicle, with an emergency's flow)")
         return osc
 
     def alternatives(self) -> str:
@@ -185,10 +199,15 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
         cs.append(c.damping)
         if getattr(c, "tracking_time", None) is not None:  # (gears with internal states)
             lags.append((f"tracking_time of coupler {j + 1}", c.tracking_time))
+    pipe = 0.0
     if any(v.brake is not None for v in scenario.vehicles):
         b = scenario.brake
-        lags.append(("brake.apply_time_constant", b.apply_time_constant))
-        lags.append(("brake.release_time_constant", b.release_time_constant))
+        if b.model == "fluid":
+            pipe, valves = fluid_rates(scenario)
+            lags += valves
+        else:
+            lags.append(("brake.apply_time_constant", b.apply_time_constant))
+            lags.append(("brake.release_time_constant", b.release_time_constant))
     for k, loco in enumerate(scenario.consists()):
         own = scenario.locomotives and loco.time_constant is not None
         tau = loco.time_constant if own else scenario.traction.time_constant
@@ -202,11 +221,49 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
         h = mode_step_limit(method, omega, zeta)
         if lag is not None:
             h = min(h, real_radius(method) * lag[1])
+        if pipe > 0.0:
+            h = min(h, imaginary_radius(method) / pipe)
         return h
 
     others = {m: limit(m) for m in TABLEAUX}
     return StepLimit(sv.method, sv.dt, others[sv.method], omega, zeta,
-                     max(ks) if ks else 0.0, lag, others)
+                     max(ks) if ks else 0.0, lag, others, pipe)
+
+
+#: Mach number of the flow in every pipe face at which :func:`fluid_rates` bounds the
+#: pipe's rates (an emergency vent draws the pipe at Mach 0.3-0.6 near it)
+EMERGENCY_MACH = 0.6
+
+
+def fluid_rates(scenario) -> tuple[float, list[tuple[str, float]]]:
+    """The fluid brake's fastest pipe rate (1/s; flow at :data:`EMERGENCY_MACH` in every
+    face, at the regulated pressure) and its valves' fastest rates as lags
+    ``(what, tau s)``, for the step check."""
+    from ltdsim.lowering import lower_fluid_parts
+    from ltdsim.physics.brakepipe import pipe_max_rate
+    from ltdsim.physics.brakevalves import valve_max_rate
+
+    parts = lower_fluid_parts(scenario)
+    a = scenario.brake.air
+    fl = scenario.brake.fluid
+    area = math.pi * fl.pipe_diameter ** 2 / 4.0
+    dx = parts["geometry"].dx_cell
+    rt = a.gas_constant * a.temperature
+    p = np.full(dx.size, parts["p_abs"])
+    q = np.full(dx.size - 1, EMERGENCY_MACH * math.sqrt(rt) * area * parts["p_abs"] / rt)
+    pipe = pipe_max_rate(p, q, area, dx, parts["geometry"].dx_face, fl.pipe_diameter,
+                         fl.roughness, a.viscosity, parts["leak"], a.gamma, a.gas_constant,
+                         a.temperature, a.linear_ratio)
+    cell = float(area * dx.min())
+    p_max = max(parts["p_abs"], parts["p_main"])
+    gas = dict(gamma=a.gamma, r_gas=a.gas_constant, temperature=a.temperature,
+               r_lin=a.linear_ratio)
+    cv = valve_max_rate(parts["cv_row"], "control", cell, p_max, **gas)
+    dv = valve_max_rate(parts["dv_row"], "driver", cell, p_max, **gas)
+    return float(pipe), [("the control valves' fastest fill (brake.fluid.valve), 1 / rate",
+                          1.0 / cv),
+                         ("the driver's valve's fastest fill (brake.fluid.valve), 1 / rate",
+                          1.0 / dv)]
 
 
 def refusal(lim: StepLimit) -> str:

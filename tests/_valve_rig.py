@@ -1,0 +1,119 @@
+"""A single-vehicle brake rig for the valve tests: one driver's valve feeding one volume
+(a vehicle's brake pipe) that one control valve draws from; integrated by classical
+Runge-Kutta at a fixed step (which keeps linear invariants such as the air mass to
+rounding)."""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ltdsim.physics import brakevalves as bv
+
+GAMMA, R_GAS, T, ATM, R_LIN = 1.4, 287.05, 293.15, 101325.0, 0.995
+PIPE_VOLUME = math.pi / 4 * 0.0318**2 * 15.0  # m^3: 15 m of 1 1/4 in pipe
+NC, ND = bv.N_CV, bv.N_DV
+I_PIPE, I_CV, I_DV = 0, 1, 1 + bv.N_CV
+I_EXH = 1 + bv.N_CV + bv.N_DV
+I_FED = I_EXH + 1
+N_Y = I_FED + 1
+
+
+@njit(cache=True)
+def rig_rhs(y, cv, dv, handle, reduction, forced, pipe_volume, dy):
+    """Rates of the rig's states. ``forced`` >= 0 replaces the driver's valve by a pipe
+    vent of that Cd x area (m^2) (the driver's valve then sits in lap)."""
+    p = y[I_PIPE]
+    draw, exh_cv = bv.control_valve(p, y[I_CV:I_CV + NC], cv, GAMMA, R_GAS, T, ATM, R_LIN,
+                                    dy[I_CV:I_CV + NC])
+    into, exh_dv = bv.driver_valve(p, y[I_DV:I_DV + ND], dv, handle, reduction, GAMMA,
+                                   R_GAS, T, ATM, R_LIN, dy[I_DV:I_DV + ND])
+    comp = bv.driver_valve_compressor(y[I_DV:I_DV + ND], dv)
+    extra = 0.0
+    if forced > 0.0:
+        extra = bv.orifice_flow(p, ATM, forced, GAMMA, R_GAS, T, R_LIN)
+    dy[I_PIPE] = R_GAS * T / pipe_volume * (into - draw - extra)
+    dy[I_EXH] = exh_cv + exh_dv + extra
+    dy[I_FED] = comp
+
+
+@njit(cache=True)
+def rig_run(y0, cv, dv, t_end, h, times, handles, reductions, vents, pipe_volume, every):
+    """Integrate from 0 to ``t_end`` with step ``h``; the command in force at time t is
+    the last row i with times[i] <= t (handle, reduction Pa, forced vent Cd A m^2).
+    Returns (t, y) sampled every ``every`` steps."""
+    n = int(round(t_end / h))
+    m = n // every + 1
+    ts = np.empty(m)
+    ys = np.empty((m, y0.size))
+    y = y0.copy()
+    k1 = np.empty_like(y)
+    k2 = np.empty_like(y)
+    k3 = np.empty_like(y)
+    k4 = np.empty_like(y)
+    tmp = np.empty_like(y)
+    j = 0
+    ts[0] = 0.0
+    ys[0] = y
+    row = 0
+    for i in range(n):
+        t = i * h
+        while row + 1 < times.size and times[row + 1] <= t + 1e-12:
+            row += 1
+        hd, red, ven = handles[row], reductions[row], vents[row]
+        rig_rhs(y, cv, dv, hd, red, ven, pipe_volume, k1)
+        for q in range(y.size):
+            tmp[q] = y[q] + 0.5 * h * k1[q]
+        rig_rhs(tmp, cv, dv, hd, red, ven, pipe_volume, k2)
+        for q in range(y.size):
+            tmp[q] = y[q] + 0.5 * h * k2[q]
+        rig_rhs(tmp, cv, dv, hd, red, ven, pipe_volume, k3)
+        for q in range(y.size):
+            tmp[q] = y[q] + h * k3[q]
+        rig_rhs(tmp, cv, dv, hd, red, ven, pipe_volume, k4)
+        for q in range(y.size):
+            y[q] += h / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3[q] + k4[q])
+        if (i + 1) % every == 0:
+            j += 1
+            ts[j] = (i + 1) * h
+            ys[j] = y
+    return ts[:j + 1], ys[:j + 1]
+
+
+def rows(name):
+    preset = bv.load_brake_preset(name)
+    return bv.control_valve_row(preset["control_valve"]), bv.driver_valve_row(
+        preset["driver_valve"])
+
+
+def charged(cv, dv, pipe_volume=PIPE_VOLUME):
+    """Initial state of the rig charged to the driver's valve's regulated pressure."""
+    p0 = ATM + dv[bv.DV_PARAMS.index("regulated")]
+    y = np.zeros(N_Y)
+    y[I_PIPE] = p0
+    y[I_CV:I_CV + NC] = bv.control_valve_init(p0, cv, ATM)
+    y[I_DV:I_DV + ND] = bv.driver_valve_init(p0, dv, ATM)
+    return y
+
+
+def run(name_or_rows, commands, t_end, h=1e-3, every=10, y0=None,
+        pipe_volume=PIPE_VOLUME):
+    """commands: list of (time s, handle name or code, reduction Pa, forced vent m^2)."""
+    cv, dv = rows(name_or_rows) if isinstance(name_or_rows, str) else name_or_rows
+    times = np.array([c[0] for c in commands], float)
+    hnd = np.array([c[1] for c in commands], np.int64)
+    red = np.array([c[2] for c in commands], float)
+    ven = np.array([c[3] if len(c) > 3 else 0.0 for c in commands], float)
+    y = charged(cv, dv, pipe_volume) if y0 is None else y0
+    return rig_run(y, cv, dv, t_end, h, times, hnd, red, ven, pipe_volume, every)
+
+
+def mass(ys, cv, dv, pipe_volume=PIPE_VOLUME):
+    """Air in the rig's volumes + exhausted - fed, kg (constant)."""
+    out = np.empty(len(ys))
+    for i, y in enumerate(ys):
+        out[i] = (y[I_PIPE] * pipe_volume / (R_GAS * T)
+                  + bv.control_valve_mass(y[I_CV:I_CV + NC], cv, R_GAS, T)
+                  + bv.driver_valve_mass(y[I_DV:I_DV + ND], dv, R_GAS, T)
+                  + y[I_EXH] - y[I_FED])
+    return out
