@@ -9,6 +9,7 @@ import numpy as np
 from numba import njit
 
 from ltdsim.physics import brakevalves as bv
+from ltdsim.physics.pneumatics import orifice_flow
 
 GAMMA, R_GAS, T, ATM, R_LIN = 1.4, 287.05, 293.15, 101325.0, 0.995
 PIPE_VOLUME = math.pi / 4 * 0.0318**2 * 15.0  # m^3: 15 m of 1 1/4 in pipe
@@ -31,7 +32,7 @@ def rig_rhs(y, cv, dv, handle, reduction, forced, pipe_volume, dy):
     comp = bv.driver_valve_compressor(y[I_DV:I_DV + ND], dv)
     extra = 0.0
     if forced > 0.0:
-        extra = bv.orifice_flow(p, ATM, forced, GAMMA, R_GAS, T, R_LIN)
+        extra = orifice_flow(p, ATM, forced, GAMMA, R_GAS, T, R_LIN)
     dy[I_PIPE] = R_GAS * T / pipe_volume * (into - draw - extra)
     dy[I_EXH] = exh_cv + exh_dv + extra
     dy[I_FED] = comp
@@ -42,7 +43,7 @@ def rig_run(y0, cv, dv, t_end, h, times, handles, reductions, vents, pipe_volume
     """Integrate from 0 to ``t_end`` with step ``h``; the command in force at time t is
     the last row i with times[i] <= t (handle, reduction Pa, forced vent Cd A m^2).
     Returns (t, y) sampled every ``every`` steps."""
-    n = int(round(t_end / h))
+    n = round(t_end / h)
     m = n // every + 1
     ts = np.empty(m)
     ys = np.empty((m, y0.size))
@@ -117,3 +118,50 @@ def mass(ys, cv, dv, pipe_volume=PIPE_VOLUME):
                   + bv.driver_valve_mass(y[I_DV:I_DV + ND], dv, R_GAS, T)
                   + y[I_EXH] - y[I_FED])
     return out
+
+
+@njit(cache=True)
+def _cv_rhs(p, s, cv, ds):
+    """The control valve's rates on the pipe pressure p (one compiled copy of the law)."""
+    bv.control_valve(p, s, cv, GAMMA, R_GAS, T, ATM, R_LIN, ds)
+
+
+@njit(cache=True)
+def cv_run_pipe(s0, cv, t_end, h, p0, rate, total, every):
+    """One control valve on a prescribed pipe pressure p0 - min(rate t, total) (Pa abs;
+    rate Pa/s, negative for a rise), classical RK4 at step h. Returns (t, states)."""
+    n = round(t_end / h)
+    m = n // every + 1
+    ts = np.empty(m)
+    ss = np.empty((m, s0.size))
+    s = s0.copy()
+    k1 = np.empty_like(s)
+    k2 = np.empty_like(s)
+    k3 = np.empty_like(s)
+    k4 = np.empty_like(s)
+    tmp = np.empty_like(s)
+    ts[0] = 0.0
+    ss[0] = s
+    j = 0
+    for i in range(n):
+        t = i * h
+        pa = p0 - min(rate * t, total) if rate > 0 else p0 + min(-rate * t, total)
+        pm = p0 - min(rate * (t + 0.5 * h), total) if rate > 0 else p0 + min(-rate * (t + 0.5 * h), total)
+        pb = p0 - min(rate * (t + h), total) if rate > 0 else p0 + min(-rate * (t + h), total)
+        _cv_rhs(pa, s, cv, k1)
+        for q in range(s.size):
+            tmp[q] = s[q] + 0.5 * h * k1[q]
+        _cv_rhs(pm, tmp, cv, k2)
+        for q in range(s.size):
+            tmp[q] = s[q] + 0.5 * h * k2[q]
+        _cv_rhs(pm, tmp, cv, k3)
+        for q in range(s.size):
+            tmp[q] = s[q] + h * k3[q]
+        _cv_rhs(pb, tmp, cv, k4)
+        for q in range(s.size):
+            s[q] += h / 6.0 * (k1[q] + 2.0 * k2[q] + 2.0 * k3[q] + k4[q])
+        if (i + 1) % every == 0:
+            j += 1
+            ts[j] = (i + 1) * h
+            ss[j] = s
+    return ts[:j + 1], ss[:j + 1]

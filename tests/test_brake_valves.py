@@ -1,0 +1,325 @@
+"""The valves of the fluid air brake on a single-vehicle rig (tests/_valve_rig.py: one
+driver's valve feeding one vehicle's pipe volume, one control valve drawing from it,
+classical Runge-Kutta at a fixed 1 ms step), against the UIC timing windows, the
+isothermal mass balance (Boyle's law), the published North American pressures and the
+conservation of air."""
+
+import itertools
+import math
+import tomllib
+
+import numpy as np
+import pytest
+from _valve_rig import (
+    ATM,
+    I_CV,
+    I_DV,
+    I_EXH,
+    I_FED,
+    I_PIPE,
+    PIPE_VOLUME,
+    charged,
+    cv_run_pipe,
+    mass,
+    rows,
+    run,
+)
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ltdsim.physics import brakevalves as bv
+
+BAR = 1e5
+PSI = 6894.757
+CYL = I_CV + bv.S_CYL
+AUX = I_CV + bv.S_AUX
+EM = I_CV + bv.S_EM
+REL, SRV, EMG, LAP = bv.H_RELEASE, bv.H_SERVICE, bv.H_EMERGENCY, bv.H_LAP
+
+# UIC application and release windows, s (UIC 540 / UIC 543): (apply 95 %, release to 0.4 bar)
+UIC_WINDOWS = {"uic-g": ((18.0, 30.0), (45.0, 60.0)), "uic-p": ((3.0, 5.0), (15.0, 20.0))}
+
+
+def _dv(name, key):
+    return bv.load_brake_preset(name)["driver_valve"][key]
+
+
+def _cv(name, key):
+    return bv.load_brake_preset(name)["control_valve"][key]
+
+
+def _gauge(ys, i):
+    return ys[:, i] - ATM
+
+
+def _first(ts, mask):
+    assert mask.any()
+    return ts[np.argmax(mask)]
+
+
+@pytest.mark.parametrize("name", ["uic-g", "uic-p"])
+def test_uic_application_time(name):
+    """Emergency at t = 1 s: the cylinder reaches 95 % of its final pressure inside the
+    UIC window, and the final pressure is the preset's maximum."""
+    ts, ys = run(name, [(0, REL, 0), (1.0, EMG, 0)], 60.0)
+    pc = _gauge(ys, CYL)
+    final = pc[-1]
+    assert final == pytest.approx(_cv(name, "max_cylinder"), rel=2e-3)
+    t95 = _first(ts, pc >= 0.95 * final) - 1.0
+    lo, hi = UIC_WINDOWS[name][0]
+    assert lo <= t95 <= hi, t95
+
+
+@pytest.mark.parametrize("name", ["uic-g", "uic-p"])
+def test_uic_release_time(name):
+    """After a full service has settled, release: the cylinder falls to 0.4 bar inside the
+    UIC window (counted from the release command)."""
+    full = _dv(name, "full_reduction")
+    ts, ys = run(name, [(0, REL, 0), (1.0, SRV, full), (61.0, REL, 0)], 150.0)
+    pc = _gauge(ys, CYL)
+    t_rel = _first(ts, (ts > 61.0) & (pc <= 0.4 * BAR)) - 61.0
+    lo, hi = UIC_WINDOWS[name][1]
+    assert lo <= t_rel <= hi, t_rel
+
+
+@pytest.mark.parametrize("name", ["uic-g", "uic-p"])
+def test_uic_full_service_gives_the_maximum(name):
+    """A full-service reduction from 5 bar ends at the preset's maximum cylinder pressure,
+    the pipe at 3.5 bar, and the auxiliary reservoir above the cylinder (Boyle: it lost what
+    the cylinder gained, less the pipe air of the first stage)."""
+    full = _dv(name, "full_reduction")
+    _ts, ys = run(name, [(0, REL, 0), (1.0, SRV, full)], 60.0)
+    pc = _gauge(ys, CYL)[-1]
+    assert pc == pytest.approx(_cv(name, "max_cylinder"), abs=0.01 * BAR)
+    assert _gauge(ys, I_PIPE)[-1] == pytest.approx(_dv(name, "regulated") - full, abs=0.01 * BAR)
+    cv, _ = rows(name)
+    va, vc = cv[bv.P_VAUX], cv[bv.P_VCYL]
+    # the cylinder's gain is at least the auxiliary reservoir's loss (first stage adds pipe air)
+    lost = (ys[0, AUX] - ys[-1, AUX]) * va
+    gained = (ys[-1, CYL] - ys[0, CYL]) * vc
+    assert gained >= lost > 0.8 * gained
+    assert ys[-1, AUX] > ys[-1, CYL]
+
+
+def test_uic_graduated_release_steps_down():
+    """From a full service, each step of pipe increase lowers the cylinder to the
+    three-pressure law's value; it stays applied until the last step."""
+    name = "uic-p"
+    full = _dv(name, "full_reduction")
+    steps = [full, 1.0 * BAR, 0.6 * BAR, 0.3 * BAR]
+    cmds = [(0, REL, 0)] + [(1.0 + 30.0 * i, SRV, r) for i, r in enumerate(steps)]
+    cmds.append((1.0 + 30.0 * len(steps), REL, 0))
+    ts, ys = run(name, cmds, 1.0 + 30.0 * (len(steps) + 1))
+    pc = _gauge(ys, CYL)
+    settled = [pc[np.searchsorted(ts, 30.0 * (i + 1))] for i in range(len(steps) + 1)]
+    assert all(a > b + 0.3 * BAR for a, b in itertools.pairwise(settled))
+    cv, _ = rows(name)
+    k = cv[bv.P_MAXCYL] / (cv[bv.P_FULLDROP] - cv[bv.P_THRESH])
+    for i, r in enumerate(steps[1:], start=1):
+        t = ts.searchsorted(30.0 * (i + 1))
+        drop = ys[t, I_CV + bv.S_CTRL] - ys[t, I_PIPE]
+        assert drop == pytest.approx(r, abs=0.02 * BAR)
+        assert settled[i] == pytest.approx(k * (drop - cv[bv.P_THRESH]), abs=0.03 * BAR)
+    assert settled[-2] > 0.3 * BAR and settled[-1] < 0.05 * BAR
+
+
+def test_aar_direct_release_on_a_small_increase():
+    """AAR: after a full service, raising the pipe by 6 psi (less than a quarter of the
+    reduction) releases the cylinder completely; a UIC valve only steps down."""
+    for name, full_release in (("aar", True), ("uic-p", False)):
+        full = _dv(name, "full_reduction")
+        small = 6.0 * PSI
+        ts, ys = run(name, [(0, REL, 0), (1.0, SRV, full), (41.0, SRV, full - small)], 100.0)
+        pc = _gauge(ys, CYL)
+        before = pc[ts.searchsorted(40.0)]
+        assert before > 2.5 * BAR
+        if full_release:
+            assert pc[-1] < 0.05 * BAR
+        else:
+            assert 0.5 * before < pc[-1] < before - 0.5 * BAR
+
+
+def test_aar_full_service_and_emergency_pressures():
+    """The AAR preset gives the published pressures: a 26 psi reduction from 90 psi leaves
+    the cylinder near the 64 psi equalisation, an emergency about 20 % higher (~77 psi)."""
+    full = _dv("aar", "full_reduction")
+    _ts, ys = run("aar", [(0, REL, 0), (1.0, SRV, full)], 60.0)
+    service = _gauge(ys, CYL)[-1] / PSI
+    _ts, ys = run("aar", [(0, REL, 0), (1.0, EMG, 0)], 60.0)
+    emergency = _gauge(ys, CYL)[-1] / PSI
+    assert 58.0 <= service <= 66.0, service
+    assert 74.0 <= emergency <= 80.0, emergency
+    assert emergency / service == pytest.approx(1.25, abs=0.08)
+
+
+def test_aar_over_reduction_equalises_by_boyles_law():
+    """With quick service closed, a reduction deeper than full service lets auxiliary
+    reservoir and cylinder equalise at (V_a p_a + V_c p_c) / (V_a + V_c) (isothermal
+    Boyle's law), with the pressures taken once the piston has closed the charging port
+    (2 s; before that the auxiliary reservoir feeds back into the falling pipe)."""
+    cv, dv = rows("aar")
+    cv = cv.copy()
+    cv[bv.P_QSCYL] = 0.0
+    ts, ys = run((cv, dv), [(0, REL, 0), (1.0, SRV, 40.0 * PSI)], 90.0)
+    va, vc = cv[bv.P_VAUX], cv[bv.P_VCYL]
+    i = ts.searchsorted(2.0)
+    assert ys[i, CYL] - ATM < 0.5 * BAR
+    p_eq = (va * ys[i, AUX] + vc * ys[i, CYL]) / (va + vc)
+    assert ys[-1, CYL] == pytest.approx(p_eq, abs=200.0)
+    assert ys[-1, AUX] == pytest.approx(p_eq, abs=200.0)
+
+
+@pytest.mark.parametrize("name", ["uic-g", "uic-p", "aar"])
+def test_emergency_trips_on_a_fast_drop_only(name):
+    """A full service never trips the emergency piston; an emergency does, the valve vents
+    its pipe, and after the release the piston resets, the pipe recharges and the
+    cylinder releases."""
+    full = _dv(name, "full_reduction")
+    ts, ys = run(name, [(0, REL, 0), (1.0, SRV, full)], 40.0)
+    assert ys[:, EM].max() < 1e-3
+    margin = (ys[:, I_CV + bv.S_QA] - ys[:, I_PIPE]).max()
+    assert margin < 0.6 * _cv(name, "trip")
+    ts, ys = run(name, [(0, REL, 0), (1.0, EMG, 0), (60.0, REL, 0)], 240.0)
+    t_trip = _first(ts, ys[:, EM] > 0.5)
+    assert t_trip < 1.5
+    assert ys[ts.searchsorted(59.0), EM] < 0.01  # reset once the chamber blew down
+    assert _gauge(ys, I_PIPE)[-1] == pytest.approx(_dv(name, "regulated"), abs=0.05 * BAR)
+    assert _gauge(ys, CYL)[-1] < 0.05 * BAR
+    assert ys[-1, EM] < 1e-3
+
+
+def test_the_valve_vents_its_pipe_in_emergency():
+    """A parted hose (31.8 mm bore opened at the vehicle) while the driver's valve keeps
+    feeding: the control valve trips and its own vent adds to the hose, so the pipe falls
+    faster than with the vent closed. The vent stays open while the quick-action chamber
+    blows down (over 10 s), then closes although the pipe is still open (the latch is the
+    chamber's pressure); the brake stays applied."""
+    cv, dv = rows("aar")
+    hose = 0.8 * math.pi / 4 * 0.0318**2  # m^2 (Cd A)
+    cmds = [(0, REL, 0), (1.0, REL, 0, hose)]
+    ts, ys = run((cv, dv), cmds, 30.0)
+    assert _first(ts, ys[:, EM] > 0.5) < 1.3
+    cv2 = cv.copy()
+    cv2[bv.P_VENT] = 0.0
+    _ts2, ys2 = run((cv2, dv), cmds, 30.0)
+    i = ts.searchsorted(1.5)
+    assert _gauge(ys, I_PIPE)[i] < _gauge(ys2, I_PIPE)[i] - 0.1 * BAR
+    assert ys[ts.searchsorted(11.0), EM] > 0.9
+    assert ys[-1, EM] < 0.01
+    assert _gauge(ys, CYL)[-1] > 4.5 * BAR  # auxiliary and emergency reservoirs in the cylinder
+
+
+@pytest.mark.parametrize("name", ["uic-g", "aar"])
+def test_air_mass_is_conserved(name):
+    """From an empty vehicle (pipe, reservoirs and cylinder at the atmosphere), charge,
+    apply, release, emergency, release again: air in all volumes + exhausted - fed by the
+    compressor stays at its initial value to 1e-9 relative."""
+    cv, dv = rows(name)
+    dv = dv.copy()
+    dv[bv.Q_COMP] = 0.05
+    dv[bv.Q_CUTIN] = dv[bv.Q_MRINIT] - 1.0 * BAR
+    dv[bv.Q_CUTOUT] = dv[bv.Q_MRINIT]
+    dv[bv.Q_GOVBAND] = 0.1 * BAR
+    dv[bv.Q_TGOV] = 0.5
+    y0 = charged(cv, dv)
+    y0[I_PIPE] = ATM
+    y0[I_CV:I_CV + bv.N_CV] = bv.control_valve_init(ATM, cv, ATM)
+    y0[I_DV + bv.D_ER] = ATM
+    full = dv[bv.Q_FULL]
+    cmds = [(0, REL, 0), (400.0, SRV, full), (460.0, REL, 0), (600.0, EMG, 0),
+            (660.0, REL, 0)]
+    ts, ys = run((cv, dv), cmds, 900.0, y0=y0, every=100)
+    m = mass(ys, cv, dv)
+    assert ys[-1, I_FED] > 0.1  # the compressor ran
+    assert ys[-1, I_EXH] > 0.1  # and air left
+    assert np.max(np.abs(m - m[0])) / m[0] < 1e-9
+    # the cycle did what it says: charged, applied, released
+    assert _gauge(ys, AUX)[ts.searchsorted(399.0)] == pytest.approx(dv[bv.Q_REG], abs=0.05 * BAR)
+    assert _gauge(ys, CYL)[ts.searchsorted(450.0)] > 3.0 * BAR
+    assert _gauge(ys, CYL)[ts.searchsorted(650.0)] > 3.0 * BAR
+    assert _gauge(ys, CYL)[-1] < 0.05 * BAR
+
+
+def _uic_on_pipe(name, rate, total, t_end, h=1e-3):
+    cv, _ = rows(name)
+    p0 = ATM + 5.0 * BAR
+    s0 = bv.control_valve_init(p0, cv, ATM)
+    return cv_run_pipe(s0, cv, t_end, h, p0, rate, total, 50)
+
+
+def test_uic_sensitivity_and_insensitivity():
+    """UIC 541-1: a 0.6 bar drop in 6 s applies the brake (the piston moves to application
+    about 1.2 s in; the cylinder follows within half a second more); a 0.3 bar drop in 60 s
+    (a leak) does not."""
+    ts, ss = _uic_on_pipe("uic-g", 0.1 * BAR, 0.6 * BAR, 10.0)
+    assert ss[-1, bv.S_CYL] - ATM > 0.3 * BAR
+    assert _first(ts, ss[:, bv.S_PISTON] > 0.0) < 1.4
+    assert _first(ts, ss[:, bv.S_CYL] - ATM > 0.05 * BAR) < 2.0
+    ts, ss = _uic_on_pipe("uic-g", 0.005 * BAR, 0.3 * BAR, 90.0)
+    assert (ss[:, bv.S_CYL] - ATM).max() < 0.05 * BAR
+
+
+@settings(deadline=None, max_examples=25)
+@given(d1=st.floats(0.0, 3.0), d2=st.floats(0.0, 3.0))
+def test_uic_cylinder_is_monotone_in_the_drop_and_capped(d1, d2):
+    """The settled UIC cylinder pressure rises with the pipe drop and never exceeds the
+    preset's maximum."""
+    if d1 > d2:
+        d1, d2 = d2, d1
+    cv, _ = rows("uic-p")
+    out = []
+    for d in (d1, d2):
+        _ts, ss = _uic_on_pipe("uic-p", 1.0 * BAR, d * BAR, 25.0, h=2e-3)
+        out.append(ss[-1, bv.S_CYL] - ATM)
+    assert out[0] <= out[1] + 200.0
+    assert out[1] <= cv[bv.P_MAXCYL] + 200.0
+    if d2 >= 1.6:
+        assert out[1] == pytest.approx(cv[bv.P_MAXCYL], abs=0.01 * BAR)
+
+
+@pytest.mark.parametrize("name", ["uic-g", "uic-p", "aar"])
+def test_max_rate_is_a_stable_step(name):
+    """Classical RK4 at the step 2 / valve_max_rate (inside RK4's stability limit of
+    2.79 / rate on the negative real axis) runs charge, emergency and release without
+    spurious oscillation: settled pressures agree with a run at an 8 times finer step and
+    the pipe pressure's total variation is no larger (an oscillating step would add to it)."""
+    cv, dv = rows(name)
+    p_max = ATM + dv[bv.Q_MRINIT]
+    rate = max(bv.valve_max_rate(cv, "control", PIPE_VOLUME, p_max),
+               bv.valve_max_rate(dv, "driver", PIPE_VOLUME, p_max))
+    assert 20.0 < rate < 500.0  # time constants between 2 and 50 ms
+    h = 2.0 / rate
+    cmds = [(0, REL, 0), (1.0, SRV, dv[bv.Q_FULL]), (30.0, REL, 0), (90.0, EMG, 0),
+            (120.0, REL, 0)]
+    ts1, ys1 = run(name, cmds, 200.0, h=h / 8, every=8)
+    ts2, ys2 = run(name, cmds, 200.0, h=h, every=1)
+    for t in (25.0, 85.0, 115.0, 195.0):
+        for k in (I_PIPE, CYL, AUX):
+            assert abs(np.interp(t, ts1, ys1[:, k]) - np.interp(t, ts2, ys2[:, k])) < 0.02 * BAR
+    tv1 = np.abs(np.diff(ys1[:, I_PIPE])).sum()
+    tv2 = np.abs(np.diff(ys2[:, I_PIPE])).sum()
+    assert tv2 <= 1.02 * tv1
+
+
+def test_presets_ship_and_bad_keys_are_refused():
+    assert {"uic-g", "uic-p", "aar"} <= set(bv.brake_presets())
+    for name in bv.brake_presets():
+        p = bv.load_brake_preset(name)
+        assert bv.control_valve_row(p["control_valve"]).shape == (bv.N_CV_PARAMS,)
+        assert bv.driver_valve_row(p["driver_valve"]).shape == (bv.N_DV_PARAMS,)
+    table = dict(bv.load_brake_preset("uic-g")["control_valve"])
+    table["apply_diametre"] = 1e-3
+    with pytest.raises(ValueError, match="unknown key 'apply_diametre'"):
+        bv.control_valve_row(table)
+    table = dict(bv.load_brake_preset("uic-g")["control_valve"], family="kunze")
+    with pytest.raises(ValueError, match="family"):
+        bv.control_valve_row(table)
+    with pytest.raises(ValueError, match="unknown brake valve preset"):
+        bv.load_brake_preset("nope")
+    # every number in a preset carries a comment (its source or reasoning)
+    for name in bv.brake_presets():
+        text = bv._brake_dir().joinpath(f"{name}.toml").read_text()
+        tomllib.loads(text)
+        for line in text.splitlines():
+            if "=" in line and not line.lstrip().startswith("#") and "family" not in line:
+                assert "#" in line, line
