@@ -263,6 +263,21 @@ def _crossing(t: np.ndarray, x: np.ndarray, level: float, start: int, below: boo
     return float(t[k - 1] + w * (t[k] - t[k - 1]))
 
 
+def _wave_starts_near(arrival: np.ndarray, c: int, reach: int = 2) -> bool:
+    """Whether a pipe drop started at or next to vehicle ``c``: the arrival times (s) of
+    the vehicles within ``reach`` of it have their least value inside that stretch (a V),
+    not at its end (a wave passing through arrives in order, front to rear or rear to
+    front). A driver's valve feeds one pipe cell of its vehicle, so the earliest arrival
+    may lie at a neighbour's reported point."""
+    n = arrival.size
+    lo, hi = max(c - reach, 0), min(c + reach + 1, n)
+    near = arrival[lo:hi]
+    if not np.isfinite(near).all():
+        return False
+    m = lo + int(np.argmin(near))
+    return (m > lo or lo == 0) and (m < hi - 1 or hi == n)
+
+
 def _application_window(ds: xr.Dataset, pipe: np.ndarray, lead: int, threshold: float,
                         command_time: float | None) -> tuple[int, int, int, float] | None:
     """(first sample, end sample exclusive, sample of the pipe pressures before the
@@ -315,9 +330,10 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
 
     **Distance** of vehicle i: along the train from the nearest brake-control point
     that vented (``control_points``, vehicle indices, default
-    :func:`brake_control_vehicles`; a remote point counts only if the pipe there fell no
-    later than at its neighbours, i.e. if the wave started there rather than passed
-    through), |x_i - x_c| between vehicle centres at the start of the record, m.
+    :func:`brake_control_vehicles`; a remote point counts only if the earliest arrival
+    among the vehicles within two of it lies inside that stretch, i.e. if a wave started
+    there rather than passed through), |x_i - x_c| between vehicle centres at the start
+    of the record, m.
 
     **Propagation speed** (m/s): the inverse slope of the least-squares straight line
     through (distance, arrival time) of every vehicle the application reached. A slope,
@@ -376,8 +392,7 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
     arrival = np.array([_crossing(tw, pw[:, i], ref[i] - threshold, start + 1, True)
                         if start + 1 < end else np.nan for i in range(n)])
     x0 = ds.position.values[0]
-    sources = [points[0]] + [c for c in points[1:] if np.isfinite(arrival[c])
-                             and arrival[c] <= np.nanmin(arrival[max(c - 1, 0):c + 2])]
+    sources = [points[0]] + [c for c in points[1:] if _wave_starts_near(arrival, c)]
     dist = np.min(np.abs(x0[:, None] - x0[sources][None, :]), axis=1)
     ok = np.isfinite(arrival)
     out: dict = {"command_time_s": t_cmd, "end_time_s": float(tw[-1]), "threshold_Pa": threshold,
