@@ -256,8 +256,8 @@ def _crossing(t: np.ndarray, x: np.ndarray, level: float, start: int, below: boo
     if k.size == 0:
         return float("nan")
     k = int(k[0]) + start
-    if k == start:
-        return float(t[k])
+    if k == 0 or not (x[k - 1] > level if below else x[k - 1] < level):
+        return float(t[k])  # reached already at the first sample looked at
     x0, x1 = x[k - 1], x[k]
     w = (x0 - level) / (x0 - x1) if x0 != x1 else 1.0
     return float(t[k - 1] + w * (t[k] - t[k - 1]))
@@ -276,6 +276,55 @@ def _wave_starts_near(arrival: np.ndarray, c: int, reach: int = 2) -> bool:
         return False
     m = lo + int(np.argmin(near))
     return (m > lo or lo == 0) and (m < hi - 1 or hi == n)
+
+
+def _fit_waves(x0: np.ndarray, sources: list[int], arrival: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Least-squares fit of arrival (s) against distance (m) with one slope and one
+    intercept per wave: ``x0`` vehicle positions (m), ``sources`` vehicle indices, front
+    to rear. The waves come from the arrivals themselves: between two neighbouring
+    sources the last vehicle to be reached (the latest arrival) is where their waves
+    meet; the vehicles from the front source to it belong to that source's rearward
+    wave, those behind it to the rear source's forward wave; the vehicles ahead of the
+    first source to its forward wave, those behind the last to its rearward wave. The
+    meeting vehicles stay out of the fit (two waves reach them together) and then join
+    the wave whose fitted line reaches them first.
+    Returns (distance of each vehicle from its wave's source m, wave of each vehicle =
+    2 x position in ``sources`` + 1 for a rearward wave, speed m/s, RMS of the residuals
+    s); speed and RMS NaN when the arrivals cannot give a slope."""
+    n = x0.size
+    order = sorted(sources)
+    src = np.empty(n, dtype=np.int64)  # position in ``order`` of each vehicle's source
+    src[:order[0]] = 0
+    meets = []
+    for k, (a, b) in enumerate(zip(order, order[1:])):
+        seg = arrival[a:b + 1]
+        meet = a + (int(np.nanargmax(seg)) if np.isfinite(seg).any() else (b - a) // 2)
+        src[a:meet + 1] = k
+        src[meet + 1:b] = k + 1
+        meets.append(meet)
+    src[order[-1]:] = len(order) - 1
+    at = np.asarray(order)[src]
+    behind = np.arange(n) >= at
+    dist = np.abs(x0 - x0[at])
+    wave = 2 * src + behind
+    ok = np.isfinite(arrival)
+    ok[meets] = False  # reached by two waves at once, and either may have come first
+    groups = np.unique(wave[ok])
+    if not (ok.sum() > groups.size and np.ptp(dist[ok]) > 0.0):
+        return dist, wave, float("nan"), float("nan")
+    design = np.column_stack([dist[ok]] + [(wave[ok] == g).astype(float) for g in groups])
+    coef, *_ = np.linalg.lstsq(design, arrival[ok], rcond=None)
+    speed = 1.0 / coef[0] if coef[0] > 0.0 else float("nan")
+    rms = float(np.sqrt(np.mean((arrival[ok] - design @ coef) ** 2)))
+    icept = dict(zip(groups.tolist(), coef[1:]))
+    for k, m in enumerate(meets):  # the wave whose line reaches the meeting vehicle first
+        first = [(icept[g] + coef[0] * abs(x0[m] - x0[order[j]]), g, j)
+                 for g, j in ((2 * k + 1, k), (2 * (k + 1), k + 1)) if g in icept]
+        if first:
+            _, wave[m], j = min(first)
+            dist[m] = abs(x0[m] - x0[order[j]])
+    return dist, wave, float(speed), rms
 
 
 def _application_window(ds: xr.Dataset, pipe: np.ndarray, lead: int, threshold: float,
@@ -328,22 +377,28 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
     pressure at that vehicle has fallen ``threshold`` (Pa, default :data:`PIPE_DROP`,
     0.2 bar) below its value before the command (the last sample before it).
 
-    **Distance** of vehicle i: along the train from the nearest brake-control point
-    that vented (``control_points``, vehicle indices, default
+    **Distance** of vehicle i: along the train from the brake-control point whose wave
+    reaches it (see below; the nearest one unless a remote point vents late) among
+    those that vented (``control_points``, vehicle indices, default
     :func:`brake_control_vehicles`; a remote point counts only if the earliest arrival
     among the vehicles within two of it lies inside that stretch, i.e. if a wave started
-    there rather than passed through), |x_i - x_c| between vehicle centres at the start
-    of the record, m.
+    there rather than passed through: a remote point that vents so late that the lead's
+    wave is within two vehicles of it by then is not told from a passing wave), |x_i -
+    x_c| between vehicle centres at the start of the record, m.
 
-    **Propagation speed** (m/s): the inverse slope of the least-squares straight line
-    through (distance, arrival time) of every vehicle the application reached. A slope,
-    not one vehicle's time, because (1) the delay at the source (the driver's valve
-    opening, the time the pipe there takes to fall by ``threshold``) is the same for
-    every vehicle and drops out of a slope but not of a ratio distance / time; (2) it
-    uses every vehicle, so one arrival's sampling error (up to an output interval) does
-    not set it. It is the speed at which the pipe drop travels along the train, the
+    **Propagation speed** (m/s): the inverse of the slope of arrival time against
+    distance, fitted by least squares to every vehicle the application reached, one
+    slope for the whole train and one intercept per wave (each source and direction:
+    ahead of a remote point and behind it are two waves; between two sources the
+    vehicle reached last is where their waves meet, and each vehicle belongs to the wave
+    on its side of that point). A slope, not one vehicle's
+    time, because (1) the delay at a source (the driver's valve opening, the time the
+    pipe there takes to fall by ``threshold``, a remote point's own delay, where along
+    its vehicle the valve feeds the pipe) is the same for every vehicle of its wave and
+    drops out of a slope but not of a ratio distance / time; (2) it uses every vehicle,
+    so one arrival's sampling error (up to an output interval) does not set it. It is the speed at which the pipe drop travels along the train, the
     quantity UIC 540 bounds from below (250 m/s for an emergency application). The RMS
-    of the line's residuals (s) says how straight the arrivals lie: a service wave that
+    of the fit's residuals (s) says how straight the arrivals lie: a service wave that
     slows down along the train shows as a large residual.
 
     **End to end**: the time from the command until the arrival at the farthest vehicle
@@ -393,18 +448,13 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
                         if start + 1 < end else np.nan for i in range(n)])
     x0 = ds.position.values[0]
     sources = [points[0]] + [c for c in points[1:] if _wave_starts_near(arrival, c)]
-    dist = np.min(np.abs(x0[:, None] - x0[sources][None, :]), axis=1)
     ok = np.isfinite(arrival)
+    dist, _, speed, rms = _fit_waves(x0, sources, arrival)
     out: dict = {"command_time_s": t_cmd, "end_time_s": float(tw[-1]), "threshold_Pa": threshold,
                  "sources": sources,
                  "control_pipe_drop_Pa": float(ref[sources[0]] - pw[-1, sources[0]]),
                  "vehicles_reached": int(ok.sum()), "arrival_s": arrival - t_cmd,
                  "distance_m": dist}
-    speed = rms = float("nan")
-    if ok.sum() >= 2 and np.ptp(dist[ok]) > 0.0:
-        slope, icept = np.polyfit(dist[ok], arrival[ok], 1)
-        speed = 1.0 / slope if slope > 0.0 else float("nan")
-        rms = float(np.sqrt(np.mean((arrival[ok] - (icept + slope * dist[ok])) ** 2)))
     far = int(np.argmax(dist))
     out.update({"propagation_speed_m_s": float(speed), "propagation_fit_rms_s": rms,
                 "farthest_vehicle": far, "farthest_distance_m": float(dist[far]),
