@@ -178,7 +178,8 @@ def _profiles(ax, values, times, t, label, cmap):
     ax.set_xlabel("vehicle (1 = lead)")
     ax.set_ylabel(f"{label} [bar, gauge]")
     ax.set_xlim(0.5, n + 0.5)
-    ax.legend(loc="best", ncol=2, title="time")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, fontsize=8.5,
+              title="time", title_fontsize=8.5)
 
 
 def brake_pressure_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
