@@ -98,7 +98,13 @@ def main(argv=None) -> dict:
                                          f"{uic.solver.t_end:.0f} s")
             cpu[key].append(c)
             wall[key].append(w)
+        result = _publish(args, r + 1, t_trip, uic, cpu, wall, ratios, last)
+    return result
 
+
+def _publish(args, rounds, t_trip, uic, cpu, wall, ratios, last) -> dict:
+    """The table of the ``rounds`` rounds done so far, printed and written (after every
+    round, so that a run stopped early leaves the rounds it finished)."""
     med = {k: statistics.median(v) for k, v in cpu.items()}
     ratio = statistics.median(ratios)
     realtime = uic.solver.t_end / med["uic"]
@@ -114,7 +120,7 @@ def main(argv=None) -> dict:
     trip = "the whole 3-hour trip" if t_trip >= 10800 else f"the trip's first {t_trip:.0f} s"
     rows = [
         ("heavy-haul: what ran", f"{trip}, 214 vehicles, bs23, lumped then fluid brake "
-                                 f"(order alternating), {args.rounds} rounds"),
+                                 f"(order alternating), {rounds} of {args.rounds} rounds"),
         ("heavy-haul, lumped brake: CPU time (median)", f"{med['lumped']:.1f} s "
                                                         f"({steps['lumped']:,} steps)"),
         ("heavy-haul, fluid brake: CPU time (median)", f"{med['fluid']:.1f} s "
@@ -148,7 +154,7 @@ def main(argv=None) -> dict:
         rows.append(("heavy-haul trip, fluid: first application's propagation",
                      f"{brake_hh['propagation_speed_m_s']:.0f} m/s at "
                      f"{brake_hh['command_time_s']:.0f} s"))
-    result = {"trip_s": t_trip, "rounds": args.rounds, "cpu_s": cpu, "wall_s": wall,
+    result = {"trip_s": t_trip, "rounds": rounds, "cpu_s": cpu, "wall_s": wall,
               "ratios": ratios, "ratio_median": ratio, "uic_realtime_factor": realtime,
               "uic_lumped_realtime_factor": uic.solver.t_end / med["uic_lumped"],
               "uic_simplified_realtime_factor": uic.solver.t_end / med["uic_simplified"],
@@ -156,7 +162,7 @@ def main(argv=None) -> dict:
               "realtime_target_met": realtime >= REALTIME_TARGET}
     publish(args.out, "bench_fluid_brake",
             "Fluid-brake benchmark, {stamp}; CPU time (time.process_time), medians of "
-            f"{args.rounds} interleaved rounds", rows, result=result)
+            f"{rounds} interleaved round{'s' if rounds > 1 else ''}", rows, result=result)
     return result
 
 

@@ -468,7 +468,7 @@ def _print_fluid_brake(ds) -> dict | None:
                  "after the command")
         if not b["last_cylinder_settled"]:
             line += " (still filling at the end: a lower bound)"
-        if b["slowest_vehicle"] != b["last_vehicle"]:
+        if b["slowest_cylinder_95_s"] > b["last_cylinder_95_s"] + 0.05:
             line += (f", slowest vehicle {b['slowest_vehicle'] + 1} at "
                      f"{b['slowest_cylinder_95_s']:.1f} s")
     elif b["last_vehicle"] >= 0:
