@@ -205,10 +205,11 @@ def travel_warning(ds: xr.Dataset, scenario=None,
 
 # ------------------------------------------------------------------ fluid air brake
 #: Pa: a vehicle's brake pipe counts as reached by a brake application once it has
-#: fallen this far (0.2 bar, about 3 psi) below its pressure at the command. Below the
-#: smallest service reduction a driver's valve makes (a few tenths of a bar in both the
-#: UIC and the North American practice), so every application reaches it at the lead;
-#: far above the ripple of a charged pipe.
+#: fallen this far (0.2 bar, about 3 psi) below its pressure before the command. Below
+#: the smallest service reduction a driver's valve makes (a few tenths of a bar in both
+#: the UIC and the North American practice), so every application reaches it at the
+#: lead; above the drop at which the control valves begin to apply (0.1 bar, the
+#: presets' ``threshold``), so a vehicle it has reached is applying.
 PIPE_DROP = 2.0e4
 
 #: share of its final pressure at which a brake cylinder counts as applied (the UIC 540
