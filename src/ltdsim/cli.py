@@ -338,6 +338,10 @@ def run(
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
+        brake_plot = brake_figure_path(plot) if plot is not None and _fluid(sc) else None
+        if brake_plot is not None:
+            _check_output(brake_plot, "--plot (the brake-pressure figure beside it)",
+                          image_suffixes(), inputs=(file,))
         label = _label(sc)  # plain text: _table keeps it so
         ds = _simulate(sc, quiet, file)
     except (ScenarioError, SimulationError) as exc:
@@ -369,6 +373,7 @@ def run(
         + f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
     _print_motion(ds)
+    brake = _print_fluid_brake(ds)
     warning = travel_warning(ds, sc)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}")
@@ -381,6 +386,11 @@ def run(
 
             save_overview(ds, plot)
             _say(f"figure written to {plot}")
+        if brake_plot is not None and "brake_pipe_pressure" in ds:
+            from ltdsim.plotting import save_brake_pressures
+
+            save_brake_pressures(ds, brake_plot, summary=brake)
+            _say(f"brake-pressure figure written to {brake_plot}")
     except OSError as exc:
         err_console.print(f"[bold red]error (writing failed):[/] "
                           f"{escape(str(exc.filename or output or plot))}: "
@@ -415,6 +425,56 @@ def _print_motion(ds) -> None:
              f"from {_speed(stop['speed_m_s'])}, counted from the brake application at "
              f"{stop['brake_time_s']:.2f} s (the first brake command or dynamic-brake demand "
              "after the last traction demand; lead vehicle)")
+
+
+def _fluid(sc) -> bool:
+    """Whether the scenario brakes with the fluid air brake (``brake.model = "fluid"``)."""
+    return getattr(sc.brake, "model", "lumped") == "fluid"
+
+
+def brake_figure_path(plot: Path) -> Path:
+    """Where ``ltdsim run --plot FIG`` writes the brake-pressure figure of a fluid-brake
+    run: beside FIG, ``<stem>-brake<suffix>``."""
+    return plot.with_name(f"{plot.stem}-brake{plot.suffix}")
+
+
+def _print_fluid_brake(ds) -> dict | None:
+    """For a fluid-brake run, the first application's propagation along the train and the
+    rear cylinder's 95 % time (ltdsim.summary.fluid_brake_summary); returns the summary
+    (None for another run)."""
+    from ltdsim.summary import fluid_brake_summary
+
+    b = fluid_brake_summary(ds)
+    if b is None:
+        return None
+    src = ", ".join(str(c + 1) for c in b["sources"])
+    plural = "s" if len(b["sources"]) > 1 else ""
+    line = (f"fluid brake: application at {b['command_time_s']:.2f} s from vehicle{plural} "
+            f"{src} (pipe there down {b['control_pipe_drop_Pa'] / 1e5:.2f} bar by "
+            f"{b['end_time_s']:.1f} s); ")
+    if b["propagation_speed_m_s"] == b["propagation_speed_m_s"]:
+        line += (f"propagation {b['propagation_speed_m_s']:.0f} m/s (slope of the pipe's "
+                 f"{b['threshold_Pa'] / 1e5:.1f} bar drop at {b['vehicles_reached']} vehicles "
+                 f"against distance), ")
+    if b["propagation_time_s"] == b["propagation_time_s"]:
+        line += (f"{b['propagation_time_s']:.2f} s to vehicle {b['farthest_vehicle'] + 1} at "
+                 f"{b['farthest_distance_m']:.0f} m ({b['end_to_end_speed_m_s']:.0f} m/s end to "
+                 "end); ")
+    else:
+        line += f"the drop did not reach vehicle {b['farthest_vehicle'] + 1}; "
+    if b["last_cylinder_95_s"] == b["last_cylinder_95_s"]:
+        line += (f"rear cylinder (vehicle {b['last_vehicle'] + 1}) at 95 % of "
+                 f"{b['last_cylinder_final_Pa'] / 1e5:.2f} bar {b['last_cylinder_95_s']:.1f} s "
+                 "after the command")
+        if not b["last_cylinder_settled"]:
+            line += " (still filling at the end: a lower bound)"
+        if b["slowest_cylinder_95_s"] > b["last_cylinder_95_s"] + 0.05:
+            line += (f", slowest vehicle {b['slowest_vehicle'] + 1} at "
+                     f"{b['slowest_cylinder_95_s']:.1f} s")
+    elif b["last_vehicle"] >= 0:
+        line += f"rear cylinder (vehicle {b['last_vehicle'] + 1}) did not apply"
+    _say(line.rstrip("; "))
+    return b
 
 
 gear_app = typer.Typer(no_args_is_help=True, help="A single draft gear: loops and impacts.")

@@ -136,6 +136,142 @@ def save_overview(ds: xr.Dataset, path: str | Path) -> Path:
     return _save(overview_figure(ds), path)
 
 
+def _vehicle_map(fig, ax, t, values, label, cmap, vmax=None):
+    """A time x vehicle map of ``values`` (Pa gauge, time x vehicle) in bar, vehicle 1 at
+    the top; NaN (no such state on that vehicle) in light grey."""
+    bar = np.asarray(values, float).T / 1e5
+    n = bar.shape[0]
+    top = vmax if vmax is not None else (np.nanmax(bar) if np.isfinite(bar).any() else 1.0)
+    colours = plt.get_cmap(cmap).copy()
+    colours.set_bad("0.88")
+    dt = (t[-1] - t[0]) / max(t.size - 1, 1)
+    image = ax.imshow(bar, aspect="auto", interpolation="nearest", cmap=colours, vmin=0.0,
+                      vmax=top or 1.0, extent=(t[0] - dt / 2, t[-1] + dt / 2, n + 0.5, 0.5))
+    fig.colorbar(image, ax=ax, label=label, pad=0.01)
+    ax.set_ylabel("vehicle\n(1 = lead)")
+    ax.yaxis.set_major_locator(plt.MaxNLocator(integer=True, nbins=min(n, 10)))
+    ax.grid(False)
+
+
+def application_window(ds: xr.Dataset, summary: dict) -> tuple[float, float]:
+    """Time window (s, s) around the application of ``summary``
+    (:func:`ltdsim.summary.fluid_brake_summary`): from a tenth of its length before the
+    command until half as long again after the slowest cylinder reached 95 % (or the
+    drop reached the farthest vehicle), within the record and the application."""
+    t_cmd = summary["command_time_s"]
+    reach = [summary[k] for k in ("slowest_cylinder_95_s", "propagation_time_s")
+             if np.isfinite(summary[k])]
+    span = 1.5 * max(reach) + 2.0 if reach else summary["end_time_s"] - t_cmd
+    t0, t1 = float(ds.time[0]), min(float(ds.time[-1]), summary["end_time_s"])
+    return max(t0, t_cmd - 0.1 * span), min(t1, t_cmd + span)
+
+
+def _profiles(ax, values, times, t, label, cmap):
+    """``values`` (Pa gauge, time x vehicle) along the train (bar against vehicle number)
+    at the recorded samples nearest ``times`` (s), coloured from early to late."""
+    n = values.shape[1]
+    colours = plt.get_cmap(cmap)(np.linspace(0.0, 0.9, len(times)))
+    for colour, when in zip(colours, times):
+        k = int(np.argmin(np.abs(t - when)))
+        ax.plot(np.arange(1, n + 1), values[k] / 1e5, color=colour, lw=1.1, marker=".",
+                ms=2.5, label=f"{t[k]:.1f} s")
+    ax.set_xlabel("vehicle (1 = lead)")
+    ax.set_ylabel(f"{label} [bar, gauge]")
+    ax.set_xlim(0.5, n + 0.5)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=3, fontsize=8.5,
+              title="time", title_fontsize=8.5)
+
+
+def brake_pressure_figure(ds: xr.Dataset, window: tuple[float, float] | None = None,
+                          summary: dict | None = None):
+    """Pipe and cylinder pressure along the train over time, for a run with the fluid
+    brake: the brake-pipe pressure and the brake-cylinder pressure of every vehicle as
+    time x vehicle maps (bar, gauge; vehicle 1 = the lead at the top; light grey where a
+    vehicle has no cylinder); both pressures against time at the first, middle and last
+    braked vehicles; and, below, the pipe and the cylinder pressure along the train
+    (against vehicle number) at six moments of the application.
+
+    With ``summary`` (:func:`ltdsim.summary.fluid_brake_summary`) the figure shows its
+    application (:func:`application_window`, unless ``window`` (s, s) is given), the
+    pipe's arrival line (0.2 bar fallen) on the pipe map, and its propagation speed and
+    the rear cylinder's 95 % time in the title; the moments of the profiles are spread
+    over the drop's travel to the farthest vehicle (pipe) and up to the slowest cylinder's
+    95 % time (cylinders). Without it, the whole record (or ``window``) and moments
+    spread over it.
+
+    Returns the matplotlib ``Figure``.
+    """
+    if window is None and summary is not None:
+        window = application_window(ds, summary)
+    sel = ds if window is None else ds.sel(time=slice(*window))
+    t = sel.time.values
+    pipe = sel.brake_pipe_pressure.values
+    cyl = sel.brake_cylinder_pressure.values
+    n = pipe.shape[1]
+    fig = plt.figure(figsize=(WIDTH, 13.5), constrained_layout=True)
+    grid = fig.add_gridspec(4, 2, height_ratios=(1.25, 1.25, 1.0, 1.1))
+    a_pipe = fig.add_subplot(grid[0, :])
+    a_cyl = fig.add_subplot(grid[1, :], sharex=a_pipe)
+    a_line = fig.add_subplot(grid[2, :], sharex=a_pipe)
+    a_pp, a_cp = fig.add_subplot(grid[3, 0]), fig.add_subplot(grid[3, 1])
+    _vehicle_map(fig, a_pipe, t, pipe, "brake pipe [bar, gauge]", "viridis")
+    a_pipe.set_title("brake-pipe pressure along the train")
+    _vehicle_map(fig, a_cyl, t, cyl, "brake cylinder [bar, gauge]", "inferno")
+    a_cyl.set_title("brake-cylinder pressure along the train (grey: no cylinder)")
+    if summary is not None:
+        arr = summary["command_time_s"] + np.asarray(summary["arrival_s"])
+        veh = np.arange(1, n + 1)
+        ok = np.isfinite(arr)
+        a_pipe.plot(arr[ok], veh[ok], color="w", lw=1.2, ls="--",
+                    label=f"arrival: pipe {summary['threshold_Pa'] / 1e5:.1f} bar below "
+                          "its pressure before the command")
+        a_pipe.legend(loc="lower right", framealpha=0.8)
+    braked = np.flatnonzero(np.isfinite(cyl).all(axis=0))
+    picks = sorted({int(braked[0]), int(braked[len(braked) // 2]), int(braked[-1])}) \
+        if braked.size else [0, n - 1]
+    for k, i in enumerate(picks):
+        colour = HIGHLIGHT_COLOURS[k % 5]
+        a_line.plot(t, pipe[:, i] / 1e5, color=colour, lw=1.0, label=f"pipe, vehicle {i + 1}")
+        if np.isfinite(cyl[:, i]).all():
+            a_line.plot(t, cyl[:, i] / 1e5, color=colour, lw=1.0, ls="--",
+                        label=f"cylinder, vehicle {i + 1}")
+    a_line.set_ylabel("pressure [bar, gauge]")
+    a_line.set_xlabel("time [s]")
+    a_line.legend(loc="best", ncol=3)
+    a_line.set_title("pipe (solid) and cylinder (dashed) at the first, middle and last "
+                     "braked vehicles")
+    t_pipe = t_cyl = np.linspace(t[0], t[-1], 6)
+    if summary is not None:
+        t_cmd = summary["command_time_s"]
+        if np.isfinite(summary["propagation_time_s"]):
+            t_pipe = t_cmd + np.linspace(0.0, 1.25 * summary["propagation_time_s"], 6)
+        if np.isfinite(summary["slowest_cylinder_95_s"]):
+            t_cyl = t_cmd + np.linspace(0.0, summary["slowest_cylinder_95_s"], 6)
+    _profiles(a_pp, pipe, t_pipe, t, "brake pipe", "viridis")
+    a_pp.set_title("brake pipe along the train")
+    _profiles(a_cp, cyl, t_cyl, t, "brake cylinder", "inferno")
+    a_cp.set_title("brake cylinders along the train")
+    title = ds.attrs.get("title", "ltdsim result") + ": fluid air brake"
+    if summary is not None:
+        bits = []
+        if np.isfinite(summary["propagation_speed_m_s"]):
+            bits.append(f"propagation {summary['propagation_speed_m_s']:.0f} m/s")
+        if np.isfinite(summary["last_cylinder_95_s"]):
+            bits.append(f"rear cylinder (vehicle {summary['last_vehicle'] + 1}) at 95 % "
+                        f"{summary['last_cylinder_95_s']:.1f} s after the command at "
+                        f"{summary['command_time_s']:.1f} s")
+        if bits:
+            title += "\n" + "; ".join(bits)
+    fig.suptitle(title)
+    return fig
+
+
+def save_brake_pressures(ds: xr.Dataset, path: str | Path, window=None, summary=None) -> Path:
+    """Write :func:`brake_pressure_figure` to ``path`` (PNG, SVG or PDF by suffix),
+    atomically."""
+    return _save(brake_pressure_figure(ds, window, summary), Path(path))
+
+
 def save_gear_loop(ds: xr.Dataset, path: str | Path, title: str = "") -> Path:
     """Force-deflection loop of a gear run (:func:`ltdsim.gear.drive_deflection`)."""
     fig, ax = plt.subplots(figsize=(7, 5), constrained_layout=True)

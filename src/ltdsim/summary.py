@@ -201,3 +201,293 @@ def travel_warning(ds: xr.Dataset, scenario=None,
     worst = over.max_deflection_m.max()
     return (f"gears deflect beyond {limit}: coupler{'s' if len(over) > 1 else ''} "
             f"{', '.join(parts)} (largest deflection beyond the slack {worst * 1e3:.0f} mm)")
+
+
+# ------------------------------------------------------------------ fluid air brake
+#: Pa: a vehicle's brake pipe counts as reached by a brake application once it has
+#: fallen this far (0.2 bar, about 3 psi) below its pressure before the command. Below
+#: the smallest service reduction a driver's valve makes (a few tenths of a bar in both
+#: the UIC and the North American practice), so every application reaches it at the
+#: lead; above the drop at which the control valves begin to apply (0.1 bar, the
+#: presets' ``threshold``), so a vehicle it has reached is applying.
+PIPE_DROP = 2.0e4
+
+#: share of its final pressure at which a brake cylinder counts as applied (the UIC 540
+#: application time runs to 95 % of the final cylinder pressure)
+CYLINDER_SHARE = 0.95
+
+#: Pa (gauge): a cylinder that ends an application below this pressure (0.1 bar) did
+#: not apply; it gets no 95 % time
+CYLINDER_APPLIED = 1.0e4
+
+#: s and share: a cylinder counts as settled at the end of its application window when
+#: its pressure changed by at most ``SETTLED_SHARE`` of its final value over the window's
+#: last ``SETTLED_WINDOW`` seconds (for an exponential fill of time constant tau this
+#: leaves a gap to the true final pressure of at most 0.5 % / (exp(5 s / tau) - 1), 0.6 %
+#: for the 8 s of a goods-timed valve). An unsettled cylinder's 95 % time is a lower
+#: bound and is reported so.
+SETTLED_WINDOW = 5.0
+SETTLED_SHARE = 0.005
+
+
+def brake_control_vehicles(ds: xr.Dataset) -> list[int]:
+    """Vehicle indices (0 = lead) of the brake-control points of the run that made ``ds``:
+    the lead consist's first vehicle and the first vehicle of every other locomotive
+    consist with ``brake_control = true`` (their driver's valves vent and charge the
+    pipe). Without the scenario in the result, the lead alone."""
+    if "scenario_json" not in ds.attrs:
+        return [0]
+    from ltdsim.scenario import Scenario
+
+    sc = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+    consists = sc.consists()
+    if not consists:
+        return [0]
+    points = [int(consists[0].vehicles[0])]
+    points += [int(c.vehicles[0]) for c in consists[1:] if c.brake_control]
+    return points
+
+
+def _crossing(t: np.ndarray, x: np.ndarray, level: float, start: int, below: bool) -> float:
+    """First time at or after sample ``start`` at which ``x`` reaches ``level`` (falling to
+    it if ``below``, else rising to it), linear between samples; NaN if it never does."""
+    seg = x[start:]
+    hit = seg <= level if below else seg >= level
+    k = np.flatnonzero(hit)
+    if k.size == 0:
+        return float("nan")
+    k = int(k[0]) + start
+    if k == 0 or not (x[k - 1] > level if below else x[k - 1] < level):
+        return float(t[k])  # reached already at the first sample looked at
+    x0, x1 = x[k - 1], x[k]
+    w = (x0 - level) / (x0 - x1) if x0 != x1 else 1.0
+    return float(t[k - 1] + w * (t[k] - t[k - 1]))
+
+
+def _wave_starts_near(arrival: np.ndarray, c: int, reach: int = 2) -> bool:
+    """Whether a pipe drop started at or next to vehicle ``c``: the arrival times (s) of
+    the vehicles within ``reach`` of it have their least value inside that stretch (a V),
+    not at its end (a wave passing through arrives in order, front to rear or rear to
+    front). A driver's valve feeds one pipe cell of its vehicle, so the earliest arrival
+    may lie at a neighbour's reported point."""
+    n = arrival.size
+    lo, hi = max(c - reach, 0), min(c + reach + 1, n)
+    near = arrival[lo:hi]
+    if not np.isfinite(near).all():
+        return False
+    m = lo + int(np.argmin(near))
+    return (m > lo or lo == 0) and (m < hi - 1 or hi == n)
+
+
+def _fit_waves(x0: np.ndarray, sources: list[int], arrival: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Least-squares fit of arrival (s) against distance (m) with one slope and one
+    intercept per wave: ``x0`` vehicle positions (m), ``sources`` vehicle indices, front
+    to rear. The waves come from the arrivals themselves: between two neighbouring
+    sources the last vehicle to be reached (the latest arrival) is where their waves
+    meet; the vehicles from the front source to it belong to that source's rearward
+    wave, those behind it to the rear source's forward wave; the vehicles ahead of the
+    first source to its forward wave, those behind the last to its rearward wave. The
+    meeting vehicles stay out of the fit (two waves reach them together) and then join
+    the wave whose fitted line reaches them first.
+    Returns (distance of each vehicle from its wave's source m, wave of each vehicle =
+    2 x position in ``sources`` + 1 for a rearward wave, speed m/s, RMS of the residuals
+    s); speed and RMS NaN when the arrivals cannot give a slope."""
+    n = x0.size
+    order = sorted(sources)
+    src = np.empty(n, dtype=np.int64)  # position in ``order`` of each vehicle's source
+    src[:order[0]] = 0
+    meets = []
+    for k, (a, b) in enumerate(zip(order, order[1:])):
+        seg = arrival[a:b + 1]
+        meet = a + (int(np.nanargmax(seg)) if np.isfinite(seg).any() else (b - a) // 2)
+        src[a:meet + 1] = k
+        src[meet + 1:b] = k + 1
+        meets.append(meet)
+    src[order[-1]:] = len(order) - 1
+    at = np.asarray(order)[src]
+    behind = np.arange(n) >= at
+    dist = np.abs(x0 - x0[at])
+    wave = 2 * src + behind
+    ok = np.isfinite(arrival)
+    ok[meets] = False  # reached by two waves at once, and either may have come first
+    groups = np.unique(wave[ok])
+    if not (ok.sum() > groups.size and np.ptp(dist[ok]) > 0.0):
+        return dist, wave, float("nan"), float("nan")
+    design = np.column_stack([dist[ok]] + [(wave[ok] == g).astype(float) for g in groups])
+    coef, *_ = np.linalg.lstsq(design, arrival[ok], rcond=None)
+    speed = 1.0 / coef[0] if coef[0] > 0.0 else float("nan")
+    rms = float(np.sqrt(np.mean((arrival[ok] - design @ coef) ** 2)))
+    icept = dict(zip(groups.tolist(), coef[1:]))
+    for k, m in enumerate(meets):  # the wave whose line reaches the meeting vehicle first
+        first = [(icept[g] + coef[0] * abs(x0[m] - x0[order[j]]), g, j)
+                 for g, j in ((2 * k + 1, k), (2 * (k + 1), k + 1)) if g in icept]
+        if first:
+            _, wave[m], j = min(first)
+            dist[m] = abs(x0[m] - x0[order[j]])
+    return dist, wave, float(speed), rms
+
+
+def _application_window(ds: xr.Dataset, pipe: np.ndarray, lead: int, threshold: float,
+                        command_time: float | None) -> tuple[int, int, int, float] | None:
+    """(first sample, end sample exclusive, sample of the pipe pressures before the
+    application, command time s) of the first brake application in the record (see
+    :func:`fluid_brake_summary`), or None without one."""
+    t = ds.time.values
+    if command_time is None and "brake_command" in ds:
+        cmd = np.nan_to_num(ds.brake_command.values)
+        rise = np.flatnonzero(np.diff(cmd) > 0.0) + 1
+        if cmd.size and cmd[0] > 0.0:
+            rise = np.concatenate(([0], rise))
+        if rise.size:
+            command_time = float(t[rise[0]])
+    if command_time is None:  # the pipe at the brake-control point tells
+        drop = np.flatnonzero(pipe[:, lead] <= pipe[0, lead] - threshold)
+        if drop.size == 0:
+            return None
+        command_time = _crossing(t, pipe[:, lead], pipe[0, lead] - threshold, 0, True)
+        start, ref = max(int(drop[0]) - 1, 0), 0  # the pipe as charged at the start
+    else:
+        start = int(np.searchsorted(t, command_time, side="right")) - 1
+        start = min(max(start, 0), t.size - 1)
+        ref = max(start - 1, 0)  # the last sample before the command was seen
+    end = t.size
+    if "brake_command" in ds:
+        cmd = np.nan_to_num(ds.brake_command.values)
+        later = np.flatnonzero(cmd[start + 1:] < cmd[start:-1]) + start + 1
+        if later.size:
+            end = int(later[0])  # the first release (or lesser command) after it
+    return start, end, ref, float(command_time)
+
+
+def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
+                        command_time: float | None = None,
+                        control_points: list[int] | None = None) -> dict | None:
+    """Propagation of the first brake application along the train and the filling of
+    the cylinders, for a run with the fluid brake (``brake_pipe_pressure`` and
+    ``brake_cylinder_pressure`` in ``ds``, time x vehicle, Pa gauge); None for another
+    run or one without an application.
+
+    **The application** starts at ``command_time`` (s): by default the first recorded
+    sample at which ``brake_command`` rises, else the moment the pipe at the lead's
+    brake-control point has fallen ``threshold``. It lasts until the command next falls
+    (a release) or the record ends. Times are resolved to the recording interval
+    (``solver.output_interval``), crossings interpolated linearly between samples.
+
+    **Arrival** at vehicle i: the first moment after the command at which the pipe
+    pressure at that vehicle has fallen ``threshold`` (Pa, default :data:`PIPE_DROP`,
+    0.2 bar) below its value before the command (the last sample before it).
+
+    **Distance** of vehicle i: along the train from the brake-control point whose wave
+    reaches it (see below; the nearest one unless a remote point vents late) among
+    those that vented (``control_points``, vehicle indices, default
+    :func:`brake_control_vehicles`; a remote point counts only if the earliest arrival
+    among the vehicles within two of it lies inside that stretch, i.e. if a wave started
+    there rather than passed through: a remote point that vents so late that the lead's
+    wave is within two vehicles of it by then is not told from a passing wave), |x_i -
+    x_c| between vehicle centres at the start of the record, m.
+
+    **Propagation speed** (m/s): the inverse of the slope of arrival time against
+    distance, fitted by least squares to every vehicle the application reached, one
+    slope for the whole train and one intercept per wave (each source and direction:
+    ahead of a remote point and behind it are two waves; between two sources the
+    vehicle reached last is where their waves meet, and each vehicle belongs to the wave
+    on its side of that point). A slope, not one vehicle's
+    time, because (1) the delay at a source (the driver's valve opening, the time the
+    pipe there takes to fall by ``threshold``, a remote point's own delay, where along
+    its vehicle the valve feeds the pipe) is the same for every vehicle of its wave and
+    drops out of a slope but not of a ratio distance / time; (2) it uses every vehicle,
+    so one arrival's sampling error (up to an output interval) does not set it. It is the speed at which the pipe drop travels along the train, the
+    quantity UIC 540 bounds from below (250 m/s for an emergency application). The RMS
+    of the fit's residuals (s) says how straight the arrivals lie: a service wave that
+    slows down along the train shows as a large residual.
+
+    **End to end**: the time from the command until the arrival at the farthest vehicle
+    (from its brake-control point), s, and that distance over that time, m/s; this one
+    includes the delay at the source.
+
+    **Cylinder times**: for each braked vehicle whose cylinder ends the application above
+    :data:`CYLINDER_APPLIED`, the time from the command until its pressure first reaches
+    :data:`CYLINDER_SHARE` (95 %) of its final pressure, the pressure at the end of the
+    application, s. Given for the last braked vehicle (the rear) and the slowest one.
+    ``*_settled`` is False when that cylinder still moved at the end of the record
+    (:data:`SETTLED_WINDOW`, :data:`SETTLED_SHARE`): its final pressure and 95 % time are
+    then lower bounds of the settled ones.
+
+    Returns
+    -------
+    dict or None
+        ``command_time_s``, ``end_time_s`` (end of the application window),
+        ``threshold_Pa``, ``sources`` (vehicle indices of the brake-control points that
+        vented), ``control_pipe_drop_Pa`` (the pipe's fall at the first source by the
+        end of the window: about 5 bar in an emergency), ``vehicles_reached``,
+        ``propagation_speed_m_s``, ``propagation_fit_rms_s``, ``farthest_vehicle``
+        (index), ``farthest_distance_m``, ``propagation_time_s``,
+        ``end_to_end_speed_m_s``, ``last_vehicle`` (index of the rear braked vehicle),
+        ``last_cylinder_final_Pa`` (gauge), ``last_cylinder_95_s``,
+        ``last_cylinder_settled``, ``slowest_vehicle``, ``slowest_cylinder_95_s``,
+        ``slowest_cylinder_settled``, ``arrival_s`` and ``cylinder_95_s`` (arrays over
+        vehicles, NaN where not reached or not braked), ``distance_m`` (array).
+    """
+    if "brake_pipe_pressure" not in ds or "brake_cylinder_pressure" not in ds:
+        return None
+    t = ds.time.values
+    if t.size < 2:
+        return None
+    pipe = ds.brake_pipe_pressure.values
+    cyl = ds.brake_cylinder_pressure.values
+    n = pipe.shape[1]
+    points = brake_control_vehicles(ds) if control_points is None else list(control_points)
+    points = [int(c) for c in points if 0 <= int(c) < n] or [0]
+    window = _application_window(ds, pipe, points[0], threshold, command_time)
+    if window is None:
+        return None
+    start, end, k_ref, t_cmd = window
+    tw, pw, cw = t[:end], pipe[:end], cyl[:end]
+    ref = pipe[k_ref]
+    arrival = np.array([_crossing(tw, pw[:, i], ref[i] - threshold, start + 1, True)
+                        if start + 1 < end else np.nan for i in range(n)])
+    x0 = ds.position.values[0]
+    sources = [points[0]] + [c for c in points[1:] if _wave_starts_near(arrival, c)]
+    ok = np.isfinite(arrival)
+    dist, _, speed, rms = _fit_waves(x0, sources, arrival)
+    out: dict = {"command_time_s": t_cmd, "end_time_s": float(tw[-1]), "threshold_Pa": threshold,
+                 "sources": sources,
+                 "control_pipe_drop_Pa": float(ref[sources[0]] - pw[-1, sources[0]]),
+                 "vehicles_reached": int(ok.sum()), "arrival_s": arrival - t_cmd,
+                 "distance_m": dist}
+    far = int(np.argmax(dist))
+    out.update({"propagation_speed_m_s": float(speed), "propagation_fit_rms_s": rms,
+                "farthest_vehicle": far, "farthest_distance_m": float(dist[far]),
+                "propagation_time_s": float(arrival[far] - t_cmd)})
+    out["end_to_end_speed_m_s"] = (float(dist[far] / out["propagation_time_s"])
+                                   if out["propagation_time_s"] > 0.0 else float("nan"))
+
+    t95 = np.full(n, np.nan)
+    settled = np.zeros(n, dtype=bool)
+    final = np.full(n, np.nan)
+    tail = tw >= tw[-1] - SETTLED_WINDOW
+    for i in range(n):
+        c = cw[:, i]
+        if not np.isfinite(c[start:]).all():
+            continue  # an unbraked vehicle (NaN cylinder)
+        final[i] = c[-1]
+        if final[i] < CYLINDER_APPLIED:
+            continue
+        t95[i] = _crossing(tw, c, CYLINDER_SHARE * final[i], start, False) - t_cmd
+        settled[i] = bool(np.ptp(c[tail]) <= SETTLED_SHARE * final[i])
+    braked = np.flatnonzero(np.isfinite(final))
+    applied = np.flatnonzero(np.isfinite(t95))
+    last = int(braked[-1]) if braked.size else -1
+    slow = int(applied[np.argmax(t95[applied])]) if applied.size else -1
+    out.update({
+        "last_vehicle": last,
+        "last_cylinder_final_Pa": float(final[last]) if last >= 0 else float("nan"),
+        "last_cylinder_95_s": float(t95[last]) if last >= 0 else float("nan"),
+        "last_cylinder_settled": bool(settled[last]) if last >= 0 else False,
+        "slowest_vehicle": slow,
+        "slowest_cylinder_95_s": float(t95[slow]) if slow >= 0 else float("nan"),
+        "slowest_cylinder_settled": bool(settled[slow]) if slow >= 0 else False,
+        "cylinder_95_s": t95,
+    })
+    return out

@@ -1,0 +1,169 @@
+"""Render docs/fluid_brake_comparison.png and print the table of
+docs/fluid-brake-comparison.md: the heavy-haul train's emergency stop from 18 m/s with
+the lumped brake (scenarios/heavy-haul.toml, case emergency) and with the fluid brake
+(scenarios/heavy-haul-fluid.toml, cases emergency-remote and emergency-lead), with the
+remote consist venting and from the lead alone; and two lumped runs given the fluid
+brake's emergency cylinder force and fill time, which say where the differences come
+from. Every run 90 s, recorded every 0.05 s.
+
+    PYTHONPATH=src python docs/fluid_brake_comparison.py [--results DIR]
+
+With ``--results DIR`` the runs are saved there as netCDF and read back on the next call
+instead of run again.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+import ltdsim
+from ltdsim.io import save_result
+from ltdsim.plotting import WIDTH, _save, plt
+from ltdsim.summary import fluid_brake_summary, stopping
+
+HERE = Path(__file__).resolve().parent
+SCEN = HERE.parent / "scenarios"
+COMMON = {"solver.t_end": 90.0, "solver.output_interval": 0.05}
+
+
+def lumped_case(remote: bool, force_scale: float = 1.0, tau: float | None = None):
+    """The lumped heavy-haul emergency, vented from both consists or from the lead alone;
+    optionally every wagon's cylinder force scaled and another fill time constant, s."""
+    sc = ltdsim.load_scenario(SCEN / "heavy-haul.toml", case="emergency")
+    ov = dict(COMMON, **{"locomotives.1.brake_control": remote})
+    if tau is not None:
+        ov["brake.apply_time_constant"] = tau
+    if force_scale != 1.0:
+        for i, v in enumerate(sc.vehicles):
+            if v.brake is not None:
+                b = v.brake.model_dump(exclude_none=True)
+                b["cylinder_force"] *= force_scale
+                ov[f"vehicles.{i}.brake"] = b
+    return sc.with_overrides(ov)
+
+
+def fluid_case(case: str):
+    return ltdsim.load_scenario(SCEN / "heavy-haul-fluid.toml", case=case).with_overrides(COMMON)
+
+
+def rear_fill_95(ds) -> float:
+    """Lumped run: time from the command (the first rise of brake_command) until the rear
+    braked vehicle's cylinder fill first reaches 95 % of its final value, s."""
+    t = ds.time.values
+    cmd = ds.brake_command.values
+    t_cmd = t[int(np.argmax(cmd > 0.0))]
+    fill = ds.brake_cylinder.values
+    rear = int(np.flatnonzero(np.isfinite(fill[-1]) & (fill[-1] > 0.0))[-1])
+    k = int(np.argmax(fill[:, rear] >= 0.95 * fill[-1, rear]))
+    return float(t[k] - t_cmd)
+
+
+def facts(ds) -> dict:
+    mx, mn = ds.max_coupler_force.values, ds.min_coupler_force.values
+    jt, jc = int(np.argmax(mx)), int(np.argmin(mn))
+    stop = stopping(ds)
+    out = {"tension_kN": mx[jt] / 1e3, "tension_coupler": jt + 1,
+           "tension_t": float(ds.time_max_coupler_force[jt]),
+           "compression_kN": -mn[jc] / 1e3, "compression_coupler": jc + 1,
+           "compression_t": float(ds.time_min_coupler_force[jc]),
+           "stop_m": stop["stopping_distance_m"] if stop else math.nan,
+           "stop_s": stop["stopping_time_s"] if stop else math.nan}
+    b = fluid_brake_summary(ds)
+    if b is not None:
+        out["rear_95_s"] = b["last_cylinder_95_s"]
+        out["propagation"] = b["propagation_speed_m_s"]
+        out["rear_arrival_s"] = b["arrival_s"][-1]
+        out["rear_bar"] = b["last_cylinder_final_Pa"] / 1e5
+    else:
+        out["rear_95_s"] = rear_fill_95(ds)
+    return out
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--results", type=Path, default=None)
+    args = ap.parse_args(argv)
+    runs = {
+        "lumped, remote venting": lambda: lumped_case(True),
+        "fluid (AAR), remote venting": lambda: fluid_case("emergency-remote"),
+        "lumped, lead only": lambda: lumped_case(False),
+        "fluid (AAR), lead only": lambda: fluid_case("emergency-lead"),
+        "lumped x1.21 force, lead only": lambda: lumped_case(False, 1.207),
+        "lumped x1.21 force, fill 1.44 s, lead only": lambda: lumped_case(False, 1.207, 1.44),
+    }
+    results = {}
+    for label, make in runs.items():
+        path = (args.results / (label.replace(" ", "_").replace(",", "") + ".nc")
+                if args.results else None)
+        if path is not None and path.exists():
+            results[label] = xr.load_dataset(path)
+        else:
+            print(f"running {label}", flush=True)
+            results[label] = ltdsim.simulate(make())
+            if path is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                save_result(results[label], path)
+    print("| run | largest tension, kN (coupler, s) | largest compression, kN (coupler, s) "
+          "| stopping distance, m (time, s) | rear cylinder at 95 %, s after the command |")
+    print("|---|---|---|---|---|")
+    for label, ds in results.items():
+        f = facts(ds)
+        print(f"| {label} | {f['tension_kN']:.0f} ({f['tension_coupler']}, "
+              f"{f['tension_t']:.1f}) | {f['compression_kN']:.0f} ({f['compression_coupler']}, "
+              f"{f['compression_t']:.1f}) | {f['stop_m']:.0f} ({f['stop_s']:.1f}) | "
+              f"{f['rear_95_s']:.1f} |")
+        if "propagation" in f:
+            print(f"|   (fluid: propagation {f['propagation']:.0f} m/s, drop at the rear "
+                  f"{f['rear_arrival_s']:.2f} s, rear cylinder {f['rear_bar']:.2f} bar) |||||")
+
+    fig, axes = plt.subplots(2, 2, figsize=(WIDTH, 8.5), constrained_layout=True)
+    pairs = (("remote venting", "lumped, remote venting", "fluid (AAR), remote venting"),
+             ("lead only", "lumped, lead only", "fluid (AAR), lead only"))
+    for ax, (what, lum, flu) in zip(axes[0], pairs):
+        for label, colour in ((lum, "tab:blue"), (flu, "tab:red")):
+            ds = results[label]
+            j = ds.coupler.values + 1
+            ax.plot(j, ds.max_coupler_force.values / 1e3, color=colour, lw=1.0,
+                    label=f"{label.split(',')[0]}: tension")
+            ax.plot(j, ds.min_coupler_force.values / 1e3, color=colour, lw=1.0, ls="--",
+                    label=f"{label.split(',')[0]}: compression")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xlabel("coupler (1 = behind the lead)")
+        ax.set_ylabel("largest force over the stop [kN]\n(+ tension, - compression)")
+        ax.set_title(f"emergency, {what}: peak coupler forces along the train")
+        ax.legend(loc="best", fontsize=8.5)
+    ax = axes[1, 0]
+    for label, colour in (("lumped, remote venting", "tab:blue"),
+                          ("fluid (AAR), remote venting", "tab:red")):
+        ds = results[label]
+        t = ds.time.values
+        for i, ls in ((2, "-"), (109, "--"), (213, ":")):
+            ax.plot(t, ds.brake_force.values[:, i] / 1e3, color=colour, ls=ls, lw=1.0,
+                    label=f"{label.split(',')[0]}, vehicle {i + 1}")
+    ax.set_xlim(0.0, 25.0)
+    ax.set_ylim(0.0, None)
+    ax.set_xlabel("time [s] (emergency at 2 s)")
+    ax.set_ylabel("brake force of one wagon [kN]")
+    ax.set_title("wagon brake force, remote venting: front, behind the remote, rear\n"
+                 "(vehicles 3 and 110 coincide: both consists vent at once)")
+    ax.legend(loc="center right", fontsize=8.5, ncol=2)
+    ax = axes[1, 1]
+    for label, ds in results.items():
+        ax.plot(ds.time.values, ds.velocity.values[:, 0], lw=1.0, label=label)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("lead speed [m/s]")
+    ax.set_title("lead vehicle's speed")
+    ax.legend(loc="upper right", fontsize=8.0)
+    fig.suptitle("heavy-haul train (214 vehicles), emergency from 18 m/s: lumped against "
+                 "fluid brake")
+    _save(fig, HERE / "fluid_brake_comparison.png")
+    print(f"figure written to {HERE / 'fluid_brake_comparison.png'}")
+
+
+if __name__ == "__main__":
+    main()
