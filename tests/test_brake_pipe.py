@@ -394,8 +394,8 @@ def _jacobian(p, q, pipe_args, leaks):
 def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed):
     """pipe_max_rate is above the largest |eigenvalue| of the numerically linearised
     pipe (numpy), for random grids, flows up to 0.6 kg/s (Mach 0.7) and leaks up to a
-    5 mm orifice per cell; and not far above: within 1.35 times at rest (Gershgorin's
-    circles on an uneven grid, leaks), within 3 times with flow (friction's and the
+    5 mm orifice per cell; and not far above: equal to it (1e-3) at rest in a tight
+    pipe, within 1.25 times with leaks, within 3 times with flow (friction's and the
     flow's shares are added as if they met in one mode)."""
     rng = np.random.default_rng(seed)
     g = pipe_geometry(lengths, n)
@@ -409,7 +409,7 @@ def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed):
     lam = np.max(np.abs(np.linalg.eigvals(_jacobian(p, q, args, leaks))))
     bound = pipe_max_rate(p, q, *args, leaks, GAMMA, R, T, R_LIN)
     assert lam <= bound * (1 + 1e-6)
-    assert bound <= (3.0 if flow > 0.0 else 1.35) * lam
+    assert bound <= (3.0 if flow > 0.0 else 1.25 if leak > 0.0 else 1.001) * lam
 
 
 def test_max_rate_is_tight_on_a_uniform_pipe_at_rest():
@@ -422,4 +422,4 @@ def test_max_rate_is_tight_on_a_uniform_pipe_at_rest():
     exact = 2 * C / 7.5 * math.cos(math.pi / (2 * nc))
     assert abs(lam / exact - 1) < 1e-4
     bound = pipe_max_rate(p, q, *args, np.zeros(nc), GAMMA, R, T, R_LIN)
-    assert lam <= bound < 1.01 * lam
+    assert lam * (1 - 1e-6) <= bound < 1.0001 * lam

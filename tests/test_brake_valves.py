@@ -139,6 +139,18 @@ def test_aar_direct_release_on_a_small_increase():
             assert 0.5 * before < pc[-1] < before - 0.5 * BAR
 
 
+@settings(deadline=None, max_examples=12)
+@given(reduction=st.floats(8.0, 26.0), rise=st.floats(3.5, 8.0))
+def test_aar_releases_fully_on_any_rise(reduction, rise):
+    """AAR (direct release): after any service reduction (8-26 psi), a pipe rise of a few
+    psi (3.5-8 psi, above the 2 psi release threshold) releases the cylinder completely."""
+    ts, ys = run("aar", [(0, REL, 0), (1.0, SRV, reduction * PSI),
+                         (31.0, SRV, (reduction - rise) * PSI)], 70.0, h=2e-3, every=10)
+    pc = _gauge(ys, CYL)
+    assert pc[ts.searchsorted(30.0)] > 0.5 * BAR
+    assert pc[-1] < 0.05 * BAR
+
+
 def test_aar_full_service_and_emergency_pressures():
     """The AAR preset gives the published pressures: a 26 psi reduction from 90 psi leaves
     the cylinder near the 64 psi equalisation, an emergency about 20 % higher (~77 psi)."""

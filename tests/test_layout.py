@@ -9,6 +9,8 @@ be forgotten in the lowering silently.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -26,8 +28,14 @@ ELSEWHERE = {
               "brake": "its own keys, below", "davis": "its own keys, below"},
     Traction: {},
     PID: {"acceleration_of": "the demand mass, checked below"},
-    Brake: {"mode": "the signal delay, checked below"},
-    VehicleBrake: {"friction_table": "the table store, checked below"},
+    Brake: {"mode": "the signal delay, checked below",
+            "model": "the fluid-brake test below", "fluid": "the fluid-brake test below",
+            "air": "the fluid-brake test below",
+            "minimum_level": "the fluid-brake test below (a schedule's level)"},
+    VehicleBrake: {"friction_table": "the table store, checked below",
+                   "piston_area": "the fluid-brake test below",
+                   "return_spring": "the fluid-brake test below",
+                   "efficiency": "the fluid-brake test below"},
     Davis: {},
 }
 
@@ -54,8 +62,8 @@ BRAKE = {"mode": "pneumatic", "propagation_speed": 231.0, "apply_time_constant":
          "release_time_constant": 11.3, "standstill_speed": 0.023, "level_step": 0.15}
 
 
-def scenario():
-    return build({
+def scenario_dict() -> dict:
+    return copy.deepcopy({
         "solver": {"dt": 1e-3, "t_end": 1.0, "output_interval": 1e-3,
                    "stability_check": False},
         "vehicles": VEHICLES,
@@ -65,6 +73,10 @@ def scenario():
         "driver": {"mode": "speed", "speed_profile": [[0.0, 0.0], [10.0, 5.0]],
                    "pid": PIDKEYS, "brake_controller": True},
     })
+
+
+def scenario():
+    return build(scenario_dict())
 
 
 def col(names, key):
@@ -192,7 +204,9 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
               "rtol": 3e-6, "atol": 2e-7, "max_step": 0.03}
     initial = {"velocities": [1.1, 1.2, 1.3, 1.4, 1.5], "couplers": "bunched"}
     driver = {"mode": "notch", "notch_profile": [[0.0, 3.0], [2.0, 5.0]],
-              "brake_profile": [[1.0, 0.5]], "brake_positions": [[40.0, 0.7]]}
+              "brake_profile": [[1.0, 0.5]], "brake_positions": [[40.0, 0.7]],
+              "brake_commands": [{"time": 2.5, "handle": "full"},
+                                 {"position": 60.0, "handle": "release"}]}
     sc = build({"solver": solver, "vehicles": vehicles, "locomotives": locos,
                 "couplers": {"default": {"model": "linear", "stiffness": 5e6, "slack": 0.02}},
                 "traction": {"max_force": 4e5, "max_power": 5e6, "adhesion_mass": 2e5,
@@ -237,10 +251,14 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     assert low.drv[col(D, "mode")] == L.DRIVER_MODES.index("notch")
     np.testing.assert_array_equal(low.prof_t, [0.0, 2.0])
     np.testing.assert_array_equal(low.prof_y, [3.0, 5.0])
-    for key, pts in (("brake_schedule", [1.0, 0.5]), ("brake_positions", [40.0, 0.7])):
+    # (each a column after the other: time or position, level, kind, value; the lumped
+    # brake takes a handle as a level)
+    for key, pts in (("brake_schedule", [1.0, 2.5, 0.5, 1.0]),
+                     ("brake_positions", [40.0, 60.0, 0.7, 0.0])):
         off, n = int(low.drv[col(D, key)]), int(low.drv[col(D, key + "_len")])
-        assert n == 1
-        np.testing.assert_array_equal(tables[off:off + 2], pts)
+        assert n == 2
+        np.testing.assert_array_equal(tables[off:off + 4], pts)
+        np.testing.assert_array_equal(tables[off + 4:off + 8], [L.CMD_LEVEL] * 2 + [0.0] * 2)
     # initial: speeds per vehicle, couplers at the buff end of their slack
     np.testing.assert_array_equal(low.y0[nv:2 * nv], initial["velocities"])
     np.testing.assert_array_equal(low.d0, -0.01)
@@ -248,7 +266,8 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     other = sc.with_overrides({"initial.velocities": None, "initial.speed": 2.5,
                                "driver.mode": "force",
                                "driver.force_profile": [[0.0, 1e5], [1.0, -2e4]],
-                               "driver.brake_profile": None, "driver.brake_positions": None})
+                               "driver.brake_profile": None, "driver.brake_positions": None,
+                               "driver.brake_commands": None})
     low2 = lower(other)
     np.testing.assert_array_equal(low2.y0[nv:2 * nv], 2.5)
     assert low2.drv[col(D, "mode")] == L.DRIVER_MODES.index("force")
@@ -256,7 +275,8 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     np.testing.assert_array_equal(low2.prof_y, [1e5, -2e4])
     placed = {
         Driver: {"mode", "notch_profile", "brake_profile", "brake_positions",
-                 "force_profile", "speed_profile", "pid", "brake_controller"},
+                 "force_profile", "speed_profile", "pid", "brake_controller",
+                 "brake_commands"},
         Locomotive: {"name", "vehicles", "max_force", "max_power", "adhesion_mass",
                      "time_constant", "jerk_limit", "notch_profile", "brake_control"},
         Track: set(track),
@@ -265,3 +285,67 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     }
     for cls, keys in placed.items():
         assert set(cls.model_fields) <= keys, (cls.__name__, set(cls.model_fields) - keys)
+
+
+def test_every_fluid_brake_key_lands_in_its_column_or_row():
+    """brake.model = "fluid": the vehicle's cylinder keys, [brake.fluid] and [brake.air]
+    in the vehicle table, the gas row, the pipe grid and the valve rows; the lumped
+    brake's minimum_level in its schedule."""
+    from ltdsim.physics.brakevalves import CV_PARAMS, DV_PARAMS
+    from ltdsim.scenario import Air, FluidBrake
+
+    d = scenario_dict()
+    d["vehicles"][1]["brake"].update(piston_area=0.071, return_spring=1503.0,
+                                     efficiency=0.83)
+    air = {"gamma": 1.39, "gas_constant": 287.5, "temperature": 280.0,
+           "atmosphere": 99000.0, "linear_ratio": 0.99, "viscosity": 1.7e-5}
+    fluid = {"valve": {"preset": "uic-g", "control_valve": {"auxiliary_volume": 0.0917}},
+             "pipe_diameter": 0.0333, "cells_per_vehicle": 3, "roughness": 5.1e-5,
+             "leakage": 3.3e-7, "regulated_pressure": 4.9e5}
+    d["brake"] = {"model": "fluid", "fluid": fluid, "air": air, "level_step": 0.1}
+    low = lower(build(d))
+    V = L.VEHICLE_COLUMNS
+    veh = low.veh
+    b1 = d["vehicles"][1]["brake"]
+    row = veh[1]
+    assert row[col(V, "piston_area")] == b1["piston_area"]
+    assert row[col(V, "return_spring")] == b1["return_spring"]
+    assert row[col(V, "brake_gain")] == pytest.approx(0.83 * b1["rigging_ratio"], rel=1e-15)
+    assert row[col(V, "inv_shoes")] == 1.0 / b1["shoes"]
+    p_fs = row[col(V, "full_service_pressure")]
+    assert p_fs == 3.8e5  # the uic-g preset's max_cylinder
+    # piston_area left out: derived so that the full service gives cylinder_force
+    b0 = d["vehicles"][0]["brake"]
+    assert veh[0, col(V, "piston_area")] * p_fs == pytest.approx(b0["cylinder_force"],
+                                                                  rel=1e-15)
+    assert low.drv[col(L.DRIVER_SLOTS, "brake_model")] == L.BRAKE_FLUID
+    gas = low.air_gas
+    for key, slot in (("gamma", "gamma"), ("gas_constant", "r_gas"),
+                      ("temperature", "temperature"), ("atmosphere", "atmosphere"),
+                      ("linear_ratio", "r_lin"), ("viscosity", "viscosity")):
+        assert gas[col(L.AIR_SLOTS, slot)] == air[key]
+    assert gas[col(L.AIR_SLOTS, "diameter")] == fluid["pipe_diameter"]
+    assert gas[col(L.AIR_SLOTS, "roughness")] == fluid["roughness"]
+    lengths = [v["length"] for v in VEHICLES]
+    np.testing.assert_allclose(low.pipe_dx_cell, np.repeat(np.array(lengths) / 3, 3),
+                               rtol=1e-15)
+    np.testing.assert_allclose(low.pipe_leak, fluid["leakage"] / 3, rtol=1e-15)
+    zp, nc = low.air_index[0], low.air_index[1]
+    assert nc == 3 * len(VEHICLES)
+    np.testing.assert_array_equal(low.y0[zp:zp + nc], air["atmosphere"] + 4.9e5)
+    assert low.cv_rows[0, CV_PARAMS.index("auxiliary_volume")] == 0.0917
+    assert low.dv_rows[0, DV_PARAMS.index("regulated")] == 4.9e5
+    placed = {FluidBrake: set(fluid), Air: set(air)}
+    missing = {cls.__name__: sorted(set(cls.model_fields) - keys)
+               for cls, keys in placed.items() if set(cls.model_fields) - keys}
+    assert not missing, f"schema keys this test does not place: {missing}"
+
+
+def test_minimum_handle_is_the_lumped_brake_s_minimum_level():
+    d = scenario_dict()
+    d["brake"] = dict(BRAKE, minimum_level=0.31)
+    d["driver"]["brake_commands"] = [{"time": 2.0, "handle": "minimum"}]
+    low = lower(build(d))
+    o, m = int(low.drv[col(L.DRIVER_SLOTS, "brake_schedule")]), int(
+        low.drv[col(L.DRIVER_SLOTS, "brake_schedule_len")])
+    assert m == 1 and low.ctab[o] == 2.0 and low.ctab[o + m] == 0.31

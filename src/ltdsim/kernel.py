@@ -586,7 +586,7 @@ def fluid_command(t, events, n_events, full):
     return H_RELEASE, 0.0
 
 
-@njit(cache=True, _nrt=False, forceinline=True)
+@njit(cache=True, _nrt=False)
 def _fluid_brakes(t, y, events, n_events, tr, dr, w, dy):
     """The fluid-dynamic air brake at time ``t`` (s): the rates of the brake pipe's cell
     pressures (Pa/s) and face flows (kg/s^2) (:func:`~ltdsim.physics.brakepipe.pipe_rates`),
@@ -597,7 +597,12 @@ def _fluid_brakes(t, y, events, n_events, tr, dr, w, dy):
     (:func:`fluid_command`). Each braked vehicle's cylinder pressure ``p`` (Pa gauge)
     gives the force ``max(0, p x piston area - return spring) x efficiency x rigging
     ratio`` on its shoes, times the shoe friction: the braking force, written to
-    ``w.bforce`` (N, + opposing forward motion) and added to ``w.res``."""
+    ``w.bforce`` (N, + opposing forward motion) and added to ``w.res``.
+
+    Compiled as a function of its own and called, not inlined: the right-hand side sits
+    at seven places in the two kernels, and inlining this much code at each doubled
+    their compile time, while the call costs nothing beside the tens of microseconds its
+    valves take on a long train."""
     air = tr.air
     gas = air.gas
     idx = air.index

@@ -335,7 +335,7 @@ def full_service_pressure(cv_row: np.ndarray, dv_row: np.ndarray) -> float:
 
 def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
     """The fluid brake's valve rows, initial valve states, pipe grid and gas row."""
-    from ltdsim.physics.brakepipe import pipe_geometry
+    from ltdsim.physics.brakepipe import air_viscosity, pipe_geometry
     from ltdsim.physics.brakevalves import (
         DV_PARAMS, control_valve_init, control_valve_row, driver_valve_init, driver_valve_row)
     from ltdsim.scenario import valve_tables
@@ -348,8 +348,9 @@ def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
     p_abs = a.atmosphere + float(dv_table["regulated"])
     geom = pipe_geometry(lengths, fl.cells_per_vehicle)
     gas = np.zeros(N_AIR)
+    viscosity = air_viscosity(a.temperature) if a.viscosity is None else a.viscosity
     gas[[A_GAMMA, A_RGAS, A_TEMP, A_ATM, A_RLIN, A_VISC]] = (
-        a.gamma, a.gas_constant, a.temperature, a.atmosphere, a.linear_ratio, a.viscosity)
+        a.gamma, a.gas_constant, a.temperature, a.atmosphere, a.linear_ratio, viscosity)
     gas[A_AREA] = np.pi * fl.pipe_diameter ** 2 / 4.0
     gas[A_DIAM] = fl.pipe_diameter
     gas[A_ROUGH] = fl.roughness
@@ -364,6 +365,7 @@ def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
         "full_service": full_service_pressure(cv_row, dv_row),
         "leak": np.full(geom.dx_cell.size, fl.leakage / fl.cells_per_vehicle),
         "dv_cell": np.array([geom.vehicle_first[i] for i in control], dtype=np.int64),
+        "viscosity": viscosity,
         "p_main": a.atmosphere + float(dict(zip(DV_PARAMS, dv_row))["main_initial"]),
     }
 

@@ -96,8 +96,11 @@ class Solver(_Strict):
                                     "whose size is arbitrary), -")
     atol: float = Field(1e-6, gt=0.0, le=1.0,
                         description="bs23: absolute tolerance on displacements, speeds, plate "
-                                    "travel and brake fill, m and m/s (force states use "
-                                    "atol x 1e6 N/m: 1e-6 means 1 N)")
+                                    "travel, brake fill and the fluid brake's valve "
+                                    "positions, m and m/s (force states use atol x 1e6 N/m: "
+                                    "1e-6 means 1 N; the fluid brake's pressures atol x 1e6 "
+                                    "Pa/m, 1 Pa, and pipe flows atol x 10 kg/(s m), 1e-5 "
+                                    "kg/s)")
     max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23: largest step, s")
     stability_check: bool = Field(
         True, description="refuse a fixed step above the method's largest stable step for "
@@ -830,9 +833,11 @@ class Air(_Strict):
                                 description="orifice law: pressure ratio above which the "
                                             "flow is taken linear in the pressure "
                                             "difference, -")
-    viscosity: float = Field(1.81e-5, ge=0.0, le=1e-4,
-                             description="dynamic viscosity of air for the pipe's wall "
-                                         "friction (0: frictionless), Pa s")
+    viscosity: float | None = Field(
+        None, ge=0.0, le=1e-4,
+        description="dynamic viscosity of air for the pipe's wall friction (none: "
+                    "Sutherland's law at temperature, 1.81e-5 at 20 C; 0: frictionless), "
+                    "Pa s")
 
 
 class Brake(_Strict):

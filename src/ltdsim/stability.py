@@ -252,7 +252,7 @@ def fluid_rates(scenario) -> tuple[float, list[tuple[str, float]]]:
     p = np.full(dx.size, parts["p_abs"])
     q = np.full(dx.size - 1, EMERGENCY_MACH * math.sqrt(rt) * area * parts["p_abs"] / rt)
     pipe = pipe_max_rate(p, q, area, dx, parts["geometry"].dx_face, fl.pipe_diameter,
-                         fl.roughness, a.viscosity, parts["leak"], a.gamma, a.gas_constant,
+                         fl.roughness, parts["viscosity"], parts["leak"], a.gamma, a.gas_constant,
                          a.temperature, a.linear_ratio)
     cell = float(area * dx.min())
     p_max = max(parts["p_abs"], parts["p_main"])

@@ -45,11 +45,13 @@ row (:data:`CV_PARAMS`); the row's ``family`` picks the law:
   through a check valve and a choke.
 * **AAR** (direct release; triple-valve behaviour): the piston compares the auxiliary
   reservoir with the pipe: application when the reservoir is ``threshold`` above the
-  pipe, lap when they are equal again, release when the pipe is
-  ``release_threshold`` above the reservoir. In between the piston stays where it is
-  (its friction): a released valve stays released, an applying one laps. In release the
-  cylinder exhausts fully and the auxiliary and emergency reservoirs recharge. In
-  emergency the emergency reservoir joins the auxiliary one in the cylinder.
+  pipe (the threshold shrinks to 0 as the piston travels to application: the slide
+  valve's friction, then the lighter graduating valve), lap when they are equal again,
+  release when the pipe is ``release_threshold`` above the reservoir. In between the
+  piston stays where it is (its friction): a released valve stays released, an applying
+  one laps. In release the cylinder exhausts fully and the auxiliary and emergency
+  reservoirs recharge. In emergency the emergency reservoir joins the auxiliary one in
+  the cylinder.
 
 Both families have quick service (while the piston applies and the cylinder is below
 ``quick_service_limit``, pipe air flows into a quick-service bulb that bleeds to the
@@ -189,6 +191,23 @@ def _ramp(u):
 
 
 @njit(cache=True, inline="always")
+def _through(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
+    """``opening`` (0-1) times the orifice flow from ``p1`` to ``p2``, kg/s; the orifice
+    law is not evaluated at all while the seat is shut (most seats, most of the time)."""
+    if opening <= 0.0:
+        return 0.0
+    return opening * orifice_flow(p1, p2, cda, gamma, r_gas, temperature, r_lin)
+
+
+@njit(cache=True, inline="always")
+def _checked(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
+    """As :func:`_through` behind a check valve: flow from ``p1`` to ``p2`` only, kg/s."""
+    if opening <= 0.0 or p1 <= p2:
+        return 0.0
+    return opening * orifice_flow(p1, p2, cda, gamma, r_gas, temperature, r_lin)
+
+
+@njit(cache=True, inline="always")
 def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds):
     """Rates of one control valve's states and its exchange with the pipe.
 
@@ -230,10 +249,10 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     f_vent = 0.0
     if par[P_VQA] > 0.0:
         f_qa = orifice_flow(p_bp, pk, par[P_QA], gamma, r_gas, temperature, r_lin)
-        f_qa_vent = e * orifice_flow(pk, atmosphere, par[P_QAVENT], gamma, r_gas,
-                                     temperature, r_lin)
-        f_vent = e * orifice_flow(p_bp, atmosphere, par[P_VENT], gamma, r_gas,
-                                  temperature, r_lin)
+        f_qa_vent = _through(e, pk, atmosphere, par[P_QAVENT], gamma, r_gas,
+                             temperature, r_lin)
+        f_vent = _through(e, p_bp, atmosphere, par[P_VENT], gamma, r_gas, temperature,
+                          r_lin)
         e_target = _ramp((pk - p_bp - par[P_TRIP]) / par[P_TRIPBAND])
         ds[S_EM] = (e_target - s[S_EM]) / par[P_TEM]
         ds[S_QA] = rt / par[P_VQA] * (f_qa - f_qa_vent)
@@ -250,48 +269,45 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
         target = par[P_MAXCYL] * min(max((pr - p_bp - par[P_THRESH]) / span, 0.0), 1.0)
         x_target = min(max((target - pcg) / band, -1.0), 1.0)
         # the auxiliary reservoir charges through a check valve, always
-        f_charge = max(orifice_flow(p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
-                                    r_lin), 0.0)
+        f_charge = _checked(1.0, p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
+                            r_lin)
         if par[P_VCTRL] > 0.0:
-            f_ctrl = _ramp(1.0 - pcg / par[P_CUTOFF]) * orifice_flow(
-                p_bp, pr, par[P_CTRL], gamma, r_gas, temperature, r_lin)
+            f_ctrl = _through(_ramp(1.0 - pcg / par[P_CUTOFF]), p_bp, pr, par[P_CTRL],
+                              gamma, r_gas, temperature, r_lin)
             ds[S_CTRL] = rt / par[P_VCTRL] * f_ctrl
         else:
             ds[S_CTRL] = 0.0
     else:
         # triple valve: auxiliary reservoir against the pipe, with piston friction
         d = pa - p_bp
-        pull_apply = _ramp((d - par[P_THRESH]) / band)
+        # the slide valve needs `threshold` to leave release or lap; once applying, the
+        # lighter graduating valve laps as the reservoir falls to the pipe (with `band`
+        # under `threshold` the piston snaps both ways: a physical hysteresis)
+        pull_apply = _ramp((d - par[P_THRESH] * (1.0 - max(x, 0.0))) / band)
         pull_release = _ramp((-d - par[P_RELTHRESH]) / band)
         x_target = pull_apply - pull_release + (1.0 - pull_apply - pull_release) * min(x, 0.0)
-        rel = max(-x, 0.0)
-        f_charge = rel * orifice_flow(p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
-                                      r_lin)
+        f_charge = _through(-x, p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
+                            r_lin)
         ds[S_CTRL] = 0.0
     if par[P_VER] > 0.0:
-        f_er = max(-x, 0.0) * max(orifice_flow(p_bp, pe, par[P_ERCHARGE], gamma, r_gas,
-                                               temperature, r_lin), 0.0)
-        f_em = e * max(orifice_flow(pe, pc, par[P_EMAPPLY], gamma, r_gas, temperature,
-                                    r_lin), 0.0)
+        f_er = _checked(-x, p_bp, pe, par[P_ERCHARGE], gamma, r_gas, temperature, r_lin)
+        f_em = _checked(e, pe, pc, par[P_EMAPPLY], gamma, r_gas, temperature, r_lin)
         ds[S_ER] = rt / par[P_VER] * (f_er - f_em)
     else:
         ds[S_ER] = 0.0
     ds[S_PISTON] = (x_target - s[S_PISTON]) / par[P_TPISTON]
 
     opening = max(x, 0.0)
-    f_apply = opening * max(orifice_flow(pa, pc, par[P_APPLY], gamma, r_gas, temperature,
-                                         r_lin), 0.0)
-    f_release = max(-x, 0.0) * orifice_flow(pc, atmosphere, par[P_RELEASE], gamma, r_gas,
-                                            temperature, r_lin)
+    f_apply = _checked(opening, pa, pc, par[P_APPLY], gamma, r_gas, temperature, r_lin)
+    f_release = _through(-x, pc, atmosphere, par[P_RELEASE], gamma, r_gas, temperature,
+                         r_lin)
     # quick service: while applying and the cylinder is still low
     qs = opening * _ramp(1.0 - pcg / par[P_QSLIMIT])
-    f_qs_cyl = qs * max(orifice_flow(p_bp, pc, par[P_QSCYL], gamma, r_gas, temperature,
-                                     r_lin), 0.0)
+    f_qs_cyl = _checked(qs, p_bp, pc, par[P_QSCYL], gamma, r_gas, temperature, r_lin)
     f_qs = 0.0
     f_qs_vent = 0.0
     if par[P_VQS] > 0.0:
-        f_qs = qs * max(orifice_flow(p_bp, pq, par[P_QS], gamma, r_gas, temperature,
-                                     r_lin), 0.0)
+        f_qs = _checked(qs, p_bp, pq, par[P_QS], gamma, r_gas, temperature, r_lin)
         f_qs_vent = orifice_flow(pq, atmosphere, par[P_QSVENT], gamma, r_gas, temperature,
                                  r_lin)
         ds[S_QS] = rt / par[P_VQS] * (f_qs - f_qs_vent)
@@ -358,18 +374,16 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
             cda = par[Q_EMERG]
             v_target = 1.0
         err = (target - pe) / par[Q_REGBAND]
-        f_erc = _ramp(err) * max(orifice_flow(pm, pe, par[Q_CHARGE], gamma, r_gas,
-                                              temperature, r_lin), 0.0)
-        f_ere = _ramp(-err) * orifice_flow(pe, atmosphere, cda, gamma, r_gas, temperature,
-                                           r_lin)
+        f_erc = _checked(_ramp(err), pm, pe, par[Q_CHARGE], gamma, r_gas, temperature,
+                         r_lin)
+        f_ere = _through(_ramp(-err), pe, atmosphere, cda, gamma, r_gas, temperature,
+                         r_lin)
     # relay valve: the pipe follows the equalising reservoir
     z = (pe - p_bp) / par[Q_RELBAND]
-    feed = _ramp(z) * max(orifice_flow(pm, p_bp, par[Q_FEED], gamma, r_gas, temperature,
-                                       r_lin), 0.0)
-    rex = _ramp(-z) * orifice_flow(p_bp, atmosphere, par[Q_EXH], gamma, r_gas, temperature,
-                                   r_lin)
-    f_vent = v * orifice_flow(p_bp, atmosphere, par[Q_VENT], gamma, r_gas, temperature,
-                              r_lin)
+    feed = _checked(_ramp(z), pm, p_bp, par[Q_FEED], gamma, r_gas, temperature, r_lin)
+    rex = _through(_ramp(-z), p_bp, atmosphere, par[Q_EXH], gamma, r_gas, temperature,
+                   r_lin)
+    f_vent = _through(v, p_bp, atmosphere, par[Q_VENT], gamma, r_gas, temperature, r_lin)
     ds[D_VENT] = (v_target - s[D_VENT]) / par[Q_TVENT]
     # compressor governor with hysteresis
     comp = 0.0
@@ -611,17 +625,17 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
         inv = (1.0 / v1 if v1 > 0 else 0.0) + (1.0 / v2 if v2 > 0 else 0.0)
         return rt * _g(cda, gamma, r_gas, temperature, r_lin) * inv
 
-    inf = 0.0  # an "infinite" volume (the atmosphere) adds nothing: 1/V = 0
+    atmos = 0.0  # the atmosphere, an infinite volume: it adds 1/V = 0
     rates = []
     if kind == "control":
         va, vc, vr, ve = par[P_VAUX], par[P_VCYL], par[P_VCTRL], par[P_VER]
         vq, vk = par[P_VQS], par[P_VQA]
         rates += [pair(par[P_CHARGE], cell_volume, va), pair(par[P_CTRL], cell_volume, vr),
                   pair(par[P_ERCHARGE], cell_volume, ve), pair(par[P_APPLY], va, vc),
-                  pair(par[P_RELEASE], vc, inf), pair(par[P_QS], cell_volume, vq),
-                  pair(par[P_QSVENT], vq, inf), pair(par[P_QSCYL], cell_volume, vc),
-                  pair(par[P_QA], cell_volume, vk), pair(par[P_QAVENT], vk, inf),
-                  pair(par[P_VENT], cell_volume, inf), pair(par[P_EMAPPLY], ve, vc),
+                  pair(par[P_RELEASE], vc, atmos), pair(par[P_QS], cell_volume, vq),
+                  pair(par[P_QSVENT], vq, atmos), pair(par[P_QSCYL], cell_volume, vc),
+                  pair(par[P_QA], cell_volume, vk), pair(par[P_QAVENT], vk, atmos),
+                  pair(par[P_VENT], cell_volume, atmos), pair(par[P_EMAPPLY], ve, vc),
                   1.0 / par[P_TPISTON], 1.0 / par[P_TEM]]
         f_full = _choked(max(par[P_APPLY], par[P_RELEASE]), p_max, gamma, r_gas, temperature)
         if par[P_FAMILY] == FAMILY_UIC:
@@ -630,9 +644,9 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
             rates.append(rt * f_full / (va * par[P_BAND]))
     elif kind == "driver":
         vm, ver = par[Q_VMR], par[Q_VER]
-        rates += [pair(par[Q_CHARGE], vm, ver), pair(par[Q_SERVICE], ver, inf),
-                  pair(par[Q_EMERG], ver, inf), pair(par[Q_FEED], vm, cell_volume),
-                  pair(par[Q_EXH], cell_volume, inf), pair(par[Q_VENT], cell_volume, inf),
+        rates += [pair(par[Q_CHARGE], vm, ver), pair(par[Q_SERVICE], ver, atmos),
+                  pair(par[Q_EMERG], ver, atmos), pair(par[Q_FEED], vm, cell_volume),
+                  pair(par[Q_EXH], cell_volume, atmos), pair(par[Q_VENT], cell_volume, atmos),
                   1.0 / par[Q_TVENT],
                   rt * _choked(par[Q_CHARGE], p_max, gamma, r_gas, temperature)
                   / (ver * par[Q_REGBAND]),

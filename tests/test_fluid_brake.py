@@ -1,0 +1,282 @@
+"""The fluid-dynamic air brake in the assembled train (brake.model = "fluid").
+
+Each test compares the engine's pipe, valves and cylinders, wired into the train, with
+something independent of the code under test: the conservation of air mass (computed
+here from the states and the volumes the preset file and the pipe's bore give), the
+brake-signal propagation speeds UIC 540 asks for, the order of application along a long
+train, the lumped model's force at full service, and a second integrator.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+import tomllib
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import ltdsim
+from ltdsim import kernel
+from ltdsim.errors import ScenarioError
+from ltdsim.lowering import lower
+
+from conftest import build
+
+#: the module (``ltdsim.simulate`` is also the function the package exports)
+sim = importlib.import_module("ltdsim.simulate")
+
+#: UIC 540 (the study's sonic propagation; brake-pipe emergency wave measured at
+#: 250-300 m/s): the least propagation speed of an emergency application, m/s
+UIC_540_EMERGENCY = 250.0
+#: isothermal speed of sound at 20 C, sqrt(R T), m/s: the pipe cannot carry a small
+#: pressure wave faster (a vent's flow adds at most its own speed, towards the vent)
+C_ISOTHERMAL = math.sqrt(287.05 * 293.15)
+WAGON = {"cylinder_force": 40500.0, "rigging_ratio": 2.6, "shoes": 8, "friction": 0.3}
+
+
+def fluid_train(n_wagons, commands, *, valve="uic-g", t_end=5.0, out=0.01, method="bs23",
+                dt=1e-4, speed=20.0, rtol=1e-4, atol=1e-5, cells=2, brake=None):
+    """A loco and ``n_wagons`` 14.4 m braked wagons (90 t), couplers linear, power off."""
+    vehicles = [{"name": "loco", "mass": 9e4, "length": 19.0, "powered": True}]
+    vehicles.append({"name": "wagon", "count": n_wagons, "mass": 9e4, "length": 14.4,
+                     "brake": dict(WAGON, **(brake or {}))})
+    return {
+        "solver": {"method": method, "dt": dt, "t_end": t_end, "output_interval": out,
+                   "rtol": rtol, "atol": atol, "max_step": 0.05},
+        "vehicles": vehicles,
+        "couplers": {"default": {"model": "linear", "stiffness": 5e7, "damping": 2e5}},
+        "traction": {"max_force": 3e5, "max_power": 6.4e6, "adhesion_mass": 9e4},
+        "brake": {"model": "fluid", "fluid": {"valve": valve, "cells_per_vehicle": cells}},
+        "driver": {"mode": "force", "force_profile": [[0.0, 0.0]],
+                   "brake_commands": commands},
+        "initial": {"speed": speed},
+    }
+
+
+def arrivals(ds, drop):
+    """Time (s) at which each vehicle's pipe pressure first lies ``drop`` Pa below its
+    start, interpolated between samples; and each vehicle's distance from the lead's
+    front (m) along the pipe."""
+    t = ds.time.values
+    p = ds.brake_pipe_pressure.values
+    below = p <= p[0] - drop
+    assert below[-1].all(), "the drop did not reach every vehicle"
+    k = np.argmax(below, axis=0)
+    out = np.empty(p.shape[1])
+    for i, ki in enumerate(k):
+        p0, p1 = p[ki - 1, i], p[ki, i]
+        target = p[0, i] - drop
+        out[i] = t[ki - 1] + (t[ki] - t[ki - 1]) * (p0 - target) / (p0 - p1)
+    x = ds.position.values[0]
+    front = x[0] + 0.5 * 19.0
+    return out, front - x
+
+
+def rear_speed(ds, t_cmd, drop=0.3e5):
+    """Brake-signal propagation speed, m/s, as the railways state it: the last vehicle's
+    distance from the driver's valve over the time from the handle's movement (``t_cmd``,
+    s) to the pipe's ``drop`` (Pa) at that vehicle."""
+    arr, dist = arrivals(ds, drop)
+    assert arr[-1] > arr[1:-1].max()  # the rear is the last to see it
+    return dist[-1] / (arr[-1] - t_cmd)
+
+
+@pytest.fixture(scope="module")
+def long_runs():
+    """A 100-wagon train (1459 m) under an emergency and a full service at 0.2 s, with
+    North American (aar) and UIC goods (uic-g) valves."""
+    runs = {}
+    for valve, handle, t_end in (("aar", "emergency", 7.0), ("aar", "full", 10.0),
+                                 ("uic-g", "full", 14.0)):
+        runs[valve, handle] = ltdsim.simulate(build(fluid_train(
+            100, [{"time": 0.2, "handle": handle}], valve=valve, t_end=t_end, out=0.02)))
+    return runs
+
+
+def test_emergency_propagates_at_the_uic_540_speed_and_service_slower(long_runs):
+    em = rear_speed(long_runs["aar", "emergency"], 0.2)
+    sv = rear_speed(long_runs["aar", "full"], 0.2)
+    print(f"emergency {em:.0f} m/s, full service {sv:.0f} m/s")
+    # UIC 540's least emergency speed; no faster than the pipe's speed of sound
+    assert UIC_540_EMERGENCY <= em <= C_ISOTHERMAL
+    assert sv < 0.9 * em
+
+
+def test_service_application_reaches_the_rear_later_and_lower(long_runs):
+    ds = long_runs["uic-g", "full"]
+    t = ds.time.values
+    bc = ds.brake_cylinder_pressure.values[:, 1:]  # the wagons (the loco has no valve)
+    assert (bc > 0.3e5)[-1].all()
+    first = np.argmax(bc > 0.3e5, axis=0)  # cylinder past 0.3 bar
+    front, rear = bc[:, :10], bc[:, -10:]
+    assert t[first[-10:]].min() > t[first[:10]].max()
+    # while applying, the rear's cylinders stay below the front's
+    mid = np.searchsorted(t, 0.5 * t[-1])
+    assert rear[mid].max() < front[mid].min()
+    assert rear[-1].max() < front[-1].min()
+
+
+def _masses(low, y, preset):
+    """Air mass (kg) in the pipe, every valve's volumes and to atmosphere, from the
+    state ``y`` (pressures Pa abs) and the volumes of the pipe's bore and the preset file
+    (read here, not through the engine)."""
+    from ltdsim.physics.brakevalves import CV_STATES, DV_STATES
+
+    rt = 287.05 * 293.15
+    idx = low.air_index
+    nc = idx[1]
+    p = y[idx[0]:idx[0] + nc]
+    area = math.pi * 0.0318 ** 2 / 4.0
+    lengths = np.array([19.0] + [14.4] * (low.n - 1))
+    pipe = np.sum(p * np.repeat(lengths / 2, 2)) * area / rt
+    cv_vol = {"auxiliary": "auxiliary_volume", "cylinder": "cylinder_volume",
+              "control": "control_volume", "emergency_reservoir": "emergency_volume",
+              "quick_service": "quick_service_volume",
+              "quick_action": "quick_action_volume"}
+    dv_vol = {"main_reservoir": "main_volume", "equalising": "equalising_volume"}
+    cv_t, dv_t = preset["control_valve"], preset["driver_valve"]
+    valves = 0.0
+    z = idx[2]
+    for _ in range(low.n - 1):
+        for k, name in enumerate(CV_STATES):
+            if name in cv_vol:
+                valves += y[z + k] * cv_t.get(cv_vol[name], 0.0) / rt
+        z += len(CV_STATES)
+    assert z == idx[3]
+    for k, name in enumerate(DV_STATES):
+        if name in dv_vol:
+            valves += y[z + k] * dv_t[dv_vol[name]] / rt
+    return pipe, valves, y[idx[4]]
+
+
+def test_air_mass_is_conserved_over_charge_apply_release():
+    preset_name = "uic-p"
+    preset = tomllib.loads(resources.files("ltdsim.data").joinpath(
+        "brakes", f"{preset_name}.toml").read_text())
+    d = fluid_train(4, [{"time": 0.5, "handle": "full"}, {"time": 8.0, "handle": "release"},
+                        {"time": 20.0, "handle": "emergency"},
+                        {"time": 26.0, "handle": "release"}],
+                    valve=preset_name, t_end=40.0, out=0.5, speed=25.0)
+    sc = build(d)
+    low = lower(sc)
+    n_rec = low.n_steps // low.record_every + 1
+    rec, y, ctl, stepper, grid, common = sim._buffers(low, n_rec)
+    totals, parts = [], []
+    for r in range(0, n_rec, 4):
+        status, _ = kernel.run_adaptive(y, ctl, stepper, r, min(r + 4, n_rec), grid, *common)
+        assert status == kernel.OK
+        parts.append(_masses(low, y, preset))
+        totals.append(sum(parts[-1]))
+    parts = np.array(parts)
+    m0 = _masses(low, low.y0, preset)
+    total0 = sum(m0)
+    drift = np.max(np.abs(np.array(totals) - total0)) / total0
+    print(f"pipe {m0[0]:.4g} kg, valves {m0[1]:.4g} kg at the start; exhausted "
+          f"{parts[-1, 2]:.4g} kg by the end; largest drift {drift:.2g} of the total")
+    # the cycle moved air: the emergency emptied the pipe, the release recharged it
+    # from the main reservoir, the cylinders filled and exhausted
+    assert parts[:, 0].min() < 0.4 * m0[0]
+    assert parts[-1, 2] > m0[0]
+    assert drift <= 1e-9
+
+
+def test_full_service_brakes_as_hard_as_the_lumped_brake_at_level_one():
+    d = fluid_train(3, [{"time": 0.5, "handle": "full"}], valve="uic-p", t_end=25.0,
+                    out=0.5, speed=30.0)
+    fluid = ltdsim.simulate(build(d))
+    d["brake"] = {"model": "lumped", "apply_time_constant": 1.0}
+    lumped = ltdsim.simulate(build(d))
+    f_fluid = fluid.brake_force.values[-1, 1:]
+    f_lumped = lumped.brake_force.values[-1, 1:]
+    assert np.all(fluid.velocity.values[-1] > 1.0)  # still moving: full friction
+    # the lumped fill after 24.5 s of a 1 s lag is 1 within 3e-11
+    expected = WAGON["cylinder_force"] * WAGON["rigging_ratio"] * WAGON["friction"]
+    np.testing.assert_allclose(f_lumped, expected, rtol=1e-6)
+    print("fluid / lumped:", f_fluid / f_lumped)
+    np.testing.assert_allclose(f_fluid, f_lumped, rtol=0.01)
+
+
+def test_fixed_step_and_adaptive_runs_agree_on_an_emergency():
+    cmd = [{"time": 0.2, "handle": "emergency"}]
+    ad = ltdsim.simulate(build(fluid_train(10, cmd, t_end=3.0, out=0.01, rtol=1e-7,
+                                           atol=1e-8)))
+    fx = ltdsim.simulate(build(fluid_train(10, cmd, t_end=3.0, out=0.01, method="ode3",
+                                           dt=5e-4)))
+    for name in ("brake_pipe_pressure", "brake_cylinder_pressure"):
+        a = np.nan_to_num(ad[name].values)
+        b = np.nan_to_num(fx[name].values)
+        err = np.max(np.abs(a - b))
+        print(name, f"{err:.3g} Pa")
+        assert err < 1e-4 * 5e5  # 50 Pa
+    np.testing.assert_allclose(fx.velocity.values, ad.velocity.values, atol=1e-4)
+
+
+# ---------------------------------------------------------------- bad input, one line
+def _error(d):
+    with pytest.raises(ScenarioError) as exc:
+        build(d)
+    text = str(exc.value)
+    assert "\n" not in text.strip()
+    return text
+
+
+def test_fluid_brake_input_errors_are_one_line():
+    d = fluid_train(2, [{"time": 1.0, "handle": "full"}])
+    d["brake"]["mode"] = "ecp"
+    assert "ecp" in _error(d)
+    d = fluid_train(2, [{"time": 1.0, "handle": "full"}], valve="nonesuch")
+    text = _error(d)
+    assert "nonesuch" in text and "uic-g" in text and "uic-p" in text
+    d = fluid_train(2, [{"time": 1.0, "reduction": 5e4}])
+    d["brake"] = {"model": "lumped"}
+    assert "reduction" in _error(d) and "fluid" in _error(d)
+    d = fluid_train(2, [{"time": 1.0, "reduction": 6e5}])
+    assert "regulated" in _error(d)
+    d = fluid_train(2, [{"time": 1.0, "position": 5.0, "handle": "full"}])
+    assert "exactly one of time" in _error(d)
+
+
+def test_lumped_handles_are_levels():
+    """A lumped run with handle commands is the run with the same brake levels."""
+    d = fluid_train(2, [{"time": 0.5, "handle": "full"}, {"time": 1.0, "handle": "minimum"},
+                        {"time": 1.5, "handle": "release"}],
+                    t_end=2.0, out=0.05, method="ode3", dt=1e-3)
+    d["brake"] = {"model": "lumped", "minimum_level": 0.3}
+    a = ltdsim.simulate(build(d))
+    d["driver"].pop("brake_commands")
+    d["driver"]["brake_profile"] = [[0.5, 1.0], [1.0, 0.3], [1.5, 0.0]]
+    b = ltdsim.simulate(build(d))
+    np.testing.assert_array_equal(a.brake_force.values, b.brake_force.values)
+    assert a.brake_force.values[-1, 1:].max() > 0.0
+
+
+def test_remote_brake_control_point_vents_with_the_lead():
+    """Distributed power: a remote consist mid-train with brake_control moves its
+    driver's valve with the lead's (radio, same instant), so the emergency reaches the
+    whole train in about the time it takes to cross half of it; without brake_control
+    the remote is pipe like any other vehicle."""
+    # (loco, 50 wagons, remote loco, 50 wagons: vehicle 51 is the remote)
+    d = fluid_train(100, [{"time": 0.2, "handle": "emergency"}], valve="aar", t_end=7.0,
+                    out=0.02)
+    wagon = d["vehicles"][1]
+    d["vehicles"] = [d["vehicles"][0], dict(wagon, count=50),
+                     {"name": "remote", "mass": 9e4, "length": 19.0, "powered": True},
+                     dict(wagon, count=50)]
+    d["locomotives"] = [{"name": "lead", "vehicles": [0]},
+                        {"name": "remote", "vehicles": [51], "brake_control": True}]
+    both = ltdsim.simulate(build(d))
+    d["locomotives"][1]["brake_control"] = False
+    lead = ltdsim.simulate(build(d))
+    arr_both, dist = arrivals(both, 0.3e5)
+    arr_lead, _ = arrivals(lead, 0.3e5)
+    # the remote's own pipe drops as early as the lead's
+    assert abs(arr_both[51] - arr_both[0]) < 0.05
+    # between the two, the pipe drops from both sides: the wagons there (at most 25
+    # wagons from a control point) see it before the rear (50 wagons from the remote)
+    assert arr_both[1:51].max() < arr_both[-1]
+    assert int(np.argmax(arr_both)) == len(arr_both) - 1
+    print(f"whole train reached after {arr_both.max() - 0.2:.2f} s (lead alone "
+          f"{arr_lead.max() - 0.2:.2f} s)")
+    assert arr_both.max() - 0.2 < 0.6 * (arr_lead.max() - 0.2)
