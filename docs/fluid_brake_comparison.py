@@ -146,12 +146,12 @@ def main(argv=None) -> None:
             ax.plot(t, ds.brake_force.values[:, i] / 1e3, color=colour, ls=ls, lw=1.0,
                     label=f"{label.split(',')[0]}, vehicle {i + 1}")
     ax.set_xlim(0.0, 25.0)
-    ax.set_ylim(0.0, None)
+    ax.set_ylim(0.0, 1.45 * ax.get_ylim()[1])  # room for the legend above the curves
     ax.set_xlabel("time [s] (emergency at 2 s)")
     ax.set_ylabel("brake force of one wagon [kN]")
     ax.set_title("wagon brake force, remote venting: front, behind the remote, rear\n"
                  "(vehicles 3 and 110 coincide: both consists vent at once)")
-    ax.legend(loc="center right", fontsize=8.5, ncol=2)
+    ax.legend(loc="upper left", fontsize=8.5, ncol=2)
     ax = axes[1, 1]
     for label, ds in results.items():
         ax.plot(ds.time.values, ds.velocity.values[:, 0], lw=1.0, label=label)

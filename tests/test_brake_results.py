@@ -121,7 +121,7 @@ def test_unsettled_cylinder_is_flagged_and_its_time_follows_its_last_pressure():
 
 
 @settings(max_examples=25, deadline=None)
-@given(n=st.integers(20, 120), where=st.floats(0.3, 0.8), speed=st.floats(150.0, 350.0),
+@given(n=st.integers(40, 120), where=st.floats(0.3, 0.8), speed=st.floats(150.0, 350.0),
        late=st.floats(0.0, 0.5))
 def test_remote_venting_counts_distance_from_the_source_that_reaches_it_first(n, where, speed,
                                                                             late):

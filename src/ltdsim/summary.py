@@ -264,12 +264,13 @@ def _crossing(t: np.ndarray, x: np.ndarray, level: float, start: int, below: boo
     return float(t[k - 1] + w * (t[k] - t[k - 1]))
 
 
-def _wave_starts_near(arrival: np.ndarray, c: int, reach: int = 2) -> bool:
-    """Whether a pipe drop started at or next to vehicle ``c``: the arrival times (s) of
+def _wave_starts_near(arrival: np.ndarray, c: int, reach: int = 5) -> bool:
+    """Whether a pipe drop started at or near vehicle ``c``: the arrival times (s) of
     the vehicles within ``reach`` of it have their least value inside that stretch (a V),
     not at its end (a wave passing through arrives in order, front to rear or rear to
-    front). A driver's valve feeds one pipe cell of its vehicle, so the earliest arrival
-    may lie at a neighbour's reported point."""
+    front). The earliest arrival may lie a few vehicles from ``c``: its driver's valve
+    feeds one pipe cell, and in a service reduction the wagons' valves near it draw the
+    pipe down (quick service) before its own, valveless, locomotives see it."""
     n = arrival.size
     lo, hi = max(c - reach, 0), min(c + reach + 1, n)
     near = arrival[lo:hi]
@@ -382,9 +383,9 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
     reaches it (see below; the nearest one unless a remote point vents late) among
     those that vented (``control_points``, vehicle indices, default
     :func:`brake_control_vehicles`; a remote point counts only if the earliest arrival
-    among the vehicles within two of it lies inside that stretch, i.e. if a wave started
+    among the vehicles within five of it lies inside that stretch, i.e. if a wave started
     there rather than passed through: a remote point that vents so late that the lead's
-    wave is within two vehicles of it by then is not told from a passing wave), |x_i -
+    wave is within five vehicles of it by then is not told from a passing wave), |x_i -
     x_c| between vehicle centres at the start of the record, m.
 
     **Propagation speed** (m/s): the inverse of the slope of arrival time against
