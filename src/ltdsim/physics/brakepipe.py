@@ -144,13 +144,13 @@ def air_viscosity(temperature: float) -> float:
     return mu0 * (temperature / t0) ** 1.5 * (t0 + s) / (temperature + s)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _rough_term(rel_rough):
     """Haaland's roughness term ``(eps / D / 3.7)^1.11``, -, of the relative roughness."""
     return (rel_rough / 3.7) ** 1.11
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _phi(re, rough_term):
     """:func:`friction_phi` with the roughness term of :func:`_rough_term` given."""
     if re <= RE_LAMINAR:
@@ -164,7 +164,7 @@ def _phi(re, rough_term):
     return (1.0 - w) * PHI_LAMINAR + w * turb
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def friction_phi(re, rel_rough):
     """``phi = f Re``: the Darcy friction factor times the Reynolds number, -, at
     Reynolds number ``re`` >= 0 and relative roughness ``rel_rough`` (-).
@@ -176,7 +176,7 @@ def friction_phi(re, rel_rough):
     return _phi(re, _rough_term(rel_rough))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def friction_factor(re, rel_rough):
     """Darcy friction factor, -, at Reynolds number ``re`` > 0 and relative roughness
     ``rel_rough`` (-): 64 / Re laminar, Haaland turbulent, blended over 2300-4000."""

@@ -184,13 +184,13 @@ _DV = {name: i for i, name in enumerate(DV_PARAMS)}
  Q_TGOV, Q_MRINIT) = range(N_DV_PARAMS)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _ramp(u):
     """0 below 0, 1 above 1, linear in between, -."""
     return min(max(u, 0.0), 1.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _through(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
     """``opening`` (0-1) times the orifice flow from ``p1`` to ``p2``, kg/s; the orifice
     law is not evaluated at all while the seat is shut (most seats, most of the time)."""
@@ -199,7 +199,7 @@ def _through(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
     return opening * orifice_flow(p1, p2, cda, gamma, r_gas, temperature, r_lin)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _checked(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
     """As :func:`_through` behind a check valve: flow from ``p1`` to ``p2`` only, kg/s."""
     if opening <= 0.0 or p1 <= p2:
@@ -207,7 +207,7 @@ def _checked(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
     return opening * orifice_flow(p1, p2, cda, gamma, r_gas, temperature, r_lin)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds):
     """Rates of one control valve's states and its exchange with the pipe.
 
@@ -321,7 +321,7 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     return draw, exhaust
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atmosphere,
                  r_lin, ds):
     """Rates of one driver's brake valve's states and its exchange with the pipe.
@@ -401,7 +401,7 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
     return feed - rex - f_vent, f_ere + rex + f_vent
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def driver_valve_compressor(s, par):
     """Mass flow the compressor delivers into the main reservoir, kg/s (the air the
     train gains; add it to the conservation balance)."""

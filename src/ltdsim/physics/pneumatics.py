@@ -36,13 +36,13 @@ import math
 from numba import njit
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def critical_ratio(gamma):
     """Critical (choking) pressure ratio ``(2 / (gamma + 1))^(gamma / (gamma - 1))``, -."""
     return (2.0 / (gamma + 1.0)) ** (gamma / (gamma - 1.0))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _nozzle(r, gamma):
     """The nozzle's flow function of the pressure ratio ``r`` in (0, 1], per unit
     ``Cd A p_u / sqrt(R T)``, -: choked below the critical ratio."""
@@ -54,7 +54,7 @@ def _nozzle(r, gamma):
                      * (r ** (2.0 / gamma) - r ** ((gamma + 1.0) / gamma)))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def orifice_flow(p1, p2, cd_area, gamma, r_gas, temperature, r_lin):
     """Mass flow through an orifice from pressure ``p1`` to ``p2``, kg/s (negative when
     ``p2 > p1``).
@@ -87,7 +87,7 @@ def orifice_flow(p1, p2, cd_area, gamma, r_gas, temperature, r_lin):
     return sign * scale * _nozzle(r, gamma)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def orifice_conductance(cd_area, gamma, r_gas, temperature, r_lin):
     """Slope of :func:`orifice_flow` in the pressure difference near equal pressures,
     kg/(s Pa): the same at every pressure level (the linear region's flow
