@@ -44,10 +44,24 @@ SIMPLIFIED = {"model": "simplified", "slack": 0.01, "damping": 999.8706, "k1": 8
               "k2": 1.856364e6, "k3": 3.4748e6, "v_c": 0.6}
 
 
+def _progress(label: str):
+    """A progress callback for ltdsim.simulate that prints a line to stderr at every
+    further tenth of the simulated time (the runs take minutes; output may go to a log)."""
+    shown = [0]
+
+    def report(t: float, t_end: float) -> None:
+        tenth = int(10.0 * t / t_end) if t_end > 0 else 10
+        if tenth > shown[0]:
+            shown[0] = tenth
+            print(f"    {label}: {t:.0f} of {t_end:.0f} s simulated", file=sys.stderr, flush=True)
+
+    return report
+
+
 def _timed(sc, label: str):
     """Run ``sc``; returns (result, CPU s, wall s) and says so on stderr."""
     c0, w0 = time.process_time(), time.perf_counter()
-    ds = ltdsim.simulate(sc)
+    ds = ltdsim.simulate(sc, progress=_progress(label))
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     print(f"  {label}: {cpu:.1f} CPU s, {wall:.1f} s wall, {ds.attrs['steps']:,} steps",
           file=sys.stderr, flush=True)
