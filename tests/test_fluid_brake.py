@@ -89,7 +89,7 @@ def long_runs():
     North American (aar) and UIC goods (uic-g) valves."""
     runs = {}
     for valve, handle, t_end in (("aar", "emergency", 7.0), ("aar", "full", 10.0),
-                                 ("uic-g", "full", 14.0)):
+                                 ("uic-g", "full", 14.0), ("uic-p", "emergency", 7.0)):
         runs[valve, handle] = ltdsim.simulate(build(fluid_train(
             100, [{"time": 0.2, "handle": handle}], valve=valve, t_end=t_end, out=0.02)))
     return runs
@@ -102,6 +102,36 @@ def test_emergency_propagates_at_the_uic_540_speed_and_service_slower(long_runs)
     # UIC 540's least emergency speed; no faster than the pipe's speed of sound
     assert UIC_540_EMERGENCY <= em <= C_ISOTHERMAL
     assert sv < 0.9 * em
+
+
+def test_uic_passenger_emergency_propagates_at_the_uic_540_speed(long_runs):
+    ds = long_runs["uic-p", "emergency"]
+    arr, dist = arrivals(ds, 0.3e5)
+    em = dist[-1] / (arr[-1] - 0.2)
+    print(f"uic-p emergency {em:.0f} m/s")
+    assert UIC_540_EMERGENCY <= em <= C_ISOTHERMAL
+
+
+@pytest.mark.parametrize("valve", ["aar", "uic-g"])
+def test_full_service_on_a_long_train_trips_no_emergency(valve):
+    """Service stability: a full service from the driver's valve on 100 wagons trips no
+    wagon's emergency portion. A tripped valve vents the pipe at its wagon to the
+    atmosphere; untripped, the pipe nowhere falls much below the full-service
+    equalisation (regulated - full_reduction, from the preset file), and (AAR) no cylinder
+    rises above the full-service pressure the preset's volumes give."""
+    preset = tomllib.loads(resources.files("ltdsim.data").joinpath(
+        "brakes", f"{valve}.toml").read_text())
+    dv, cv = preset["driver_valve"], preset["control_valve"]
+    ds = ltdsim.simulate(build(fluid_train(
+        100, [{"time": 0.2, "handle": "full"}], valve=valve, t_end=30.0, out=0.1)))
+    p_full = dv["regulated"] - dv["full_reduction"]
+    # a tripped valve's vent takes the pipe to near 0 bar; service holds it at p_full
+    assert ds.brake_pipe_pressure.values.min() > 0.8 * p_full
+    if valve == "aar":
+        # auxiliary reservoir equalising with the cylinder (isothermal, gauge)
+        va, vc = cv["auxiliary_volume"], cv["cylinder_volume"]
+        p_eq = va * dv["regulated"] / (va + vc)
+        assert ds.brake_cylinder_pressure.values[:, 1:].max() < 1.03 * p_eq
 
 
 def test_service_application_reaches_the_rear_later_and_lower(long_runs):
