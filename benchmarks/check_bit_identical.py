@@ -8,7 +8,9 @@ bs23 with air brakes and friction gears), and stores every data variable and
 coordinate of each result. ``compare OUT.npz`` runs the same list with the code on
 ``PYTHONPATH`` and reports, per run, whether every array is bitwise equal (NaN equal to
 NaN at the same place) and the largest difference where it is not. Exit status 1 when
-any differs.
+any data array (variable or coordinate) differs; changed attributes (the scenario's
+JSON gaining new default keys, a new attribute) are listed apart and do not fail a
+run.
 
 Made for refactors that must not change a single bit (a reordering of floating-point
 operations shows up here as differences of a few ulp). The run facts ``wall_time_s``
@@ -113,14 +115,20 @@ def main(argv=None) -> int:
                 diffs.append(f"{k.split('|')[1]} (max |diff| {dmax:.3g})")
         missing = [k for k in ref if k.startswith(f"{label}|") and k not in arr]
         diffs += [f"{k.split('|')[1]} missing" for k in missing]
-        bad += bool(diffs)
-        print(f"{'IDENTICAL' if not diffs else 'DIFFERS  '} {label}: {len(arr)} arrays"
-              + ("" if not diffs else ": " + "; ".join(diffs)) + f" ({took:.1f} s CPU)",
-              flush=True)
+        # results are the data (variables, coordinates); attributes (the scenario's JSON
+        # with new default keys, a new attribute) are listed apart and do not fail a run
+        data = [d for d in diffs if not d.startswith("attr:")]
+        attrs = [d for d in diffs if d.startswith("attr:")]
+        bad += bool(data)
+        verdict = "DIFFERS  " if data else "IDENTICAL"
+        print(f"{verdict} {label}: {len(arr)} arrays"
+              + ("" if not data else ": " + "; ".join(data))
+              + ("" if not attrs else " [attributes changed: " + "; ".join(attrs) + "]")
+              + f" ({took:.1f} s CPU)", flush=True)
     if ref is None:
         np.savez_compressed(args.file, **store)
         return 0
-    print("all bit-identical" if not bad else f"{bad} run(s) differ")
+    print("all data bit-identical" if not bad else f"{bad} run(s) differ in their data")
     return 1 if bad else 0
 
 
