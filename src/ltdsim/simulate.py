@@ -115,7 +115,9 @@ def recording_bytes(scenario: Scenario) -> int:
         cells = n * scenario.brake.fluid.cells_per_vehicle
         ny += 2 * cells + braked * kernel.N_CV + nk * kernel.N_DV + 1
     stages = 4 if sv.adaptive else get_tableau(sv.method).stages
-    work = kernel.work_size(n, ny, stages, nk, cells) + 4 * ny + 4 * nc + n + 2 + nk
+    air_steps = sv.adaptive and scenario.brake.model == "fluid"
+    work = (kernel.work_size(n, ny, stages, nk, cells, air_steps)
+            + 4 * ny + 4 * nc + n + 2 + nk)
     return 8 * (n_samples * per_sample + work)
 
 
@@ -240,7 +242,8 @@ def _buffers(low: Lowered, n_rec: int):
     stages = tab.stages + 1 if low.adaptive else tab.stages  # (bs23: + the step's end)
     out = kernel.Outputs(**{k: rec[k] for k in kernel.Outputs._fields})
     common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
-              kernel.make_work(n, y.shape[0], stages, nk, low.pipe_dx_cell.size), out)
+              kernel.make_work(n, y.shape[0], stages, nk, low.pipe_dx_cell.size,
+                               air_steps=low.adaptive and low.fluid), out)
     if low.adaptive:
         grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
                                h_max=low.max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
@@ -305,6 +308,8 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
     rec["n_events"] = int(ctl.state[0]["n_events"])
     st = stepper[0]
     rec["steps"] = (int(st["accepted"]), int(st["rejected"])) if low.adaptive else (low.n_steps, 0)
+    air = common[3].air_step[0]
+    rec["air_steps"] = (int(air["accepted"]), int(air["rejected"]))
     return rec
 
 
@@ -424,4 +429,8 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
                        "1) is the lead; coupler index 0 (coupler_number 1) joins the lead "
                        "and the second vehicle",
     })
+    if scenario.brake.model == "fluid" and scenario.solver.adaptive:
+        # the pneumatic states' own steps (kernel.run_adaptive)
+        ds.attrs["air_steps"] = rec["air_steps"][0]
+        ds.attrs["air_rejected_steps"] = rec["air_steps"][1]
     return ds
