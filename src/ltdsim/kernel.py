@@ -319,6 +319,7 @@ class Adaptive(NamedTuple):
     out_dt: float  # time between records, s
     n_rec: int  # records of the whole run
     h_max: float  # largest step, s
+    air_h_max: float  # largest step of the fluid brake's pneumatic states, s
     atol: np.ndarray  # (ny,) absolute error scale per state element (units of the state)
     rtol: np.ndarray  # (ny,) relative tolerance per state element, -
     A: np.ndarray  # (stages, stages) Butcher tableau
@@ -810,7 +811,7 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
     """One accepted step of the fluid brake's pneumatic states, on their own from the
     end ``t1`` of the last one, for :func:`run_adaptive`: the bs23 pair of ``ad`` under
     the same error control as the mechanical states (``ad.atol``, ``ad.rtol`` of the
-    pneumatic states, max norm, PI step control), at most ``ad.h_max`` long and ending
+    pneumatic states, max norm, PI step control), at most ``ad.air_h_max`` long and ending
     no later than ``t_cap`` (s). The pneumatics do not depend on the mechanical states
     (only on the driver's commands), so they need not move in the mechanical steps,
     which take far smaller steps when gears and slack are at work: the mechanical right
@@ -841,7 +842,7 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
     st["t0"] = t
     h = st["h"]
     while True:
-        h_try = min(h, ad.h_max)
+        h_try = min(h, ad.air_h_max)
         hit = False
         if t + h_try >= t_cap:
             h_try = t_cap - t

@@ -70,6 +70,7 @@ class Lowered:
     atol: np.ndarray  # bs23 absolute error scale per state element
     rtol: np.ndarray  # bs23 relative tolerance per state element (0 for positions)
     max_step: float
+    air_max_step: float  # bs23, fluid brake: largest pneumatic step, s
     adaptive: bool
     # the fluid brake (brake.model = "fluid"; empty for the lumped brake): gas and pipe
     # constants (layout.AIR_SLOTS), state offsets (layout.AIR_INDEX), cell lengths m,
@@ -308,7 +309,8 @@ def lower(s: Scenario) -> Lowered:
         ctab=np.array(tables, dtype=float),
         tableau=BS23 if sv.adaptive else get_tableau(sv.method), dt=float(sv.dt),
         n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
-        atol=atol, rtol=rtol, max_step=float(sv.max_step), adaptive=sv.adaptive,
+        atol=atol, rtol=rtol, max_step=float(sv.max_step),
+        air_max_step=float(sv.air_max_step), adaptive=sv.adaptive,
         **fluid_extra,
     )
 

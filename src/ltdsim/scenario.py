@@ -102,6 +102,11 @@ class Solver(_Strict):
                                     "Pa/m, 1 Pa, and pipe flows atol x 10 kg/(s m), 1e-5 "
                                     "kg/s)")
     max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23: largest step, s")
+    air_max_step: float = Field(
+        1.0, gt=0.0, le=100.0,
+        description="bs23 with brake.model = \"fluid\": largest step of the brake's "
+                    "pneumatic states, which take their own error-controlled steps (the "
+                    "mechanical steps end where a pneumatic step ends), s")
     stability_check: bool = Field(
         True, description="refuse a fixed step above the method's largest stable step for "
                           "the train (ltdsim.stability); false runs it anyway (the run stops "

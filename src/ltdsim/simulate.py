@@ -246,7 +246,8 @@ def _buffers(low: Lowered, n_rec: int):
                                air_steps=low.adaptive and low.fluid), out)
     if low.adaptive:
         grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
-                               h_max=low.max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
+                               h_max=low.max_step,
+                               air_h_max=low.air_max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
                                b=tab.b, c=tab.c, e=tab.e)
     else:
         grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
