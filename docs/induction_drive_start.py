@@ -69,7 +69,7 @@ def main(argv=None):
     if not a.out.parent.is_dir():
         sys.exit(f"rig: --out: folder {a.out.parent} does not exist")
     print(f"rig: {a.preset}, shaft inertia {a.inertia:g} kg m^2, {a.t_end:g} s", flush=True)
-    motor, c, sol, o = run(a.preset, a.inertia, a.t_end, 1e6)
+    motor, _, sol, o = run(a.preset, a.inertia, a.t_end, 1e6)
 
     import matplotlib
     matplotlib.use("Agg")

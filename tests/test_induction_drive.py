@@ -13,14 +13,19 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from ltdsim.drive_schema import Motor, load_motor, motor_presets
 from ltdsim.physics import foc
 from ltdsim.physics.induction import (
+    M_LM,
+    M_LR,
+    M_P,
+    M_RR,
     N_MOTOR,
+    breakdown_torque,
     copper_loss,
     currents,
     derive_from_ratings,
@@ -180,6 +185,39 @@ def test_dynamic_model_settles_to_the_circuit(drive):
 
 # --- controller ---------------------------------------------------------------------------
 
+@settings(max_examples=60, deadline=None)
+@given(speed=st.floats(1.05, 2.2), load=st.floats(0.05, 1.0))
+def test_field_weakening_law_against_the_circuit(speed, load):
+    """The field-weakening flux current (the quadratic in the controller) against the
+    phasor circuit: at the frequency, torque and flux current it gives, with the torque
+    current and slip of field orientation, the circuit fed with the planned voltage
+    carries that torque and that current. Speeds 1.05-2.2 x base, torques up to the
+    drive's limit there."""
+    motor = load_motor(PRESET)
+    m = motor_row(motor)
+    c = foc.controller_row(motor)
+    p, lm, lr, rr = m[M_P], m[M_LM], m[M_LR], m[M_RR]
+    kt = 1.5 * p * lm * lm / lr
+    vfw = motor.voltage_margin * motor.dc_link_voltage / math.sqrt(3.0)
+    wm = speed * motor.base_speed * RPM
+    t = load * min(motor.rated_power / wm,
+                   0.8 * motor.breakdown_margin * breakdown_torque(m, vfw, wm)[0])
+    # the slip depends on i_d: iterate the frame frequency to the fixed point
+    we = p * wm
+    for _ in range(50):
+        i_d = foc._flux_current(t, we, vfw, c)
+        i_q = t / (kt * i_d)
+        we_new = p * wm + rr * i_q / (lr * i_d)
+        if abs(we_new - we) < 1e-12 * we:
+            break
+        we = we_new
+    assume(i_d < c[foc.C_PSI0] / lm * (1.0 - 1e-6))  # field weakening active
+    ref = equivalent_circuit(m, vfw, we, (we - p * wm) / we)
+    assert ref["torque"] == pytest.approx(t, rel=5e-3)
+    assert ref["stator_current"] == pytest.approx(math.hypot(i_d, i_q), rel=5e-3)
+
+
+
 def test_torque_step_follows_the_current_loop_design(drive):
     """A torque step at 300 rpm (far below base speed, no voltage limit): the designed
     loops are first-order lags of the bandwidth w_c, so the torque is T (1 - exp(-w_c t))
@@ -276,7 +314,7 @@ def start(drive):
 
 
 def test_start_keeps_voltage_and_current_within_limits(drive, start):
-    motor, m, c = drive
+    motor, _, _ = drive
     sol, outs = start
     vmax = motor.dc_link_voltage / math.sqrt(3.0)
     v = np.hypot(outs[:, foc.O_VD], outs[:, foc.O_VQ])
@@ -292,7 +330,7 @@ def test_start_keeps_voltage_and_current_within_limits(drive, start):
 def test_energy_balance_over_a_start(drive, start):
     """DC energy = shaft work + copper loss + stored magnetic energy's change, to 0.5 %
     (the machine has no other loss; the inverter is lossless)."""
-    motor, m, c = drive
+    _, m, _ = drive
     sol, _ = start
     n = foc.N_DRIVE
     e_dc, e_mech, e_cu = sol.y[n + 1, -1], sol.y[n + 2, -1], sol.y[n + 3, -1]

@@ -15,7 +15,7 @@ import tomllib
 from importlib import resources
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 
 class Motor(BaseModel):
@@ -102,5 +102,12 @@ def load_motor(name: str) -> Motor:
     if name not in names:
         raise ValueError(f"unknown motor preset {name!r}; available: "
                          f"{', '.join(names) or 'none (this install lacks its package data)'}")
-    with _motor_dir().joinpath(f"{name}.toml").open("rb") as fh:
-        return Motor(**tomllib.load(fh))
+    path = _motor_dir().joinpath(f"{name}.toml")
+    with path.open("rb") as fh:
+        data = tomllib.load(fh)
+    try:
+        return Motor(**data)
+    except ValidationError as e:
+        err = e.errors()[0]
+        key = ".".join(str(x) for x in err["loc"]) or "(file)"
+        raise ValueError(f"{path.name}: {key}: {err['msg']}") from None

@@ -78,6 +78,9 @@ from ltdsim.physics.induction import (
     M_RS,
     MOTOR_STATES,
     N_MOTOR,
+    S_PRD,
+    S_PRQ,
+    S_PSD,
     currents,
     machine_rates,
     motor_row,
@@ -249,7 +252,7 @@ def drive_rates(y, wm, t_ref, v_dc, m, c, dy, out):
     out[O_IQREF] = iq_ref
     out[O_TREF] = t_star
     out[O_WE] = we
-    out[O_PSIR] = math.sqrt(y[2] * y[2] + y[3] * y[3])
+    out[O_PSIR] = math.sqrt(y[S_PRD] * y[S_PRD] + y[S_PRQ] * y[S_PRQ])
     out[O_PSIREF] = lm * id_ref
     return te
 
@@ -303,8 +306,8 @@ def drive_init(m: np.ndarray, c: np.ndarray, flux: float | None = None) -> np.nd
     psi = c[C_PSI0] if flux is None else float(flux)
     i_d = psi / m[M_LM]
     y = np.zeros(N_DRIVE)
-    y[0] = m[M_LS] * i_d          # psi_sd = L_s i_d + L_m i_rd, i_rd = 0 in steady state
-    y[2] = psi                    # psi_rd = L_m i_d
+    y[S_PSD] = m[M_LS] * i_d      # psi_sd = L_s i_d + L_m i_rd, i_rd = 0 in steady state
+    y[S_PRD] = psi                # psi_rd = L_m i_d
     y[S_FLUX] = psi
     y[S_ID] = c[C_RSIG] * i_d
     return y

@@ -263,7 +263,7 @@ def derive_from_ratings(motor, tol: float = 1e-12) -> dict:
     # start: magnetising reactance of about 2 per unit, leakage 5 % of it
     z_base = v / i_rated
     x0 = np.log([2.0 * z_base / we, 0.05, s_r * z_base])
-    x, info, ok, msg = fsolve(residual, x0, full_output=True, xtol=tol)
+    x, _, ok, msg = fsolve(residual, x0, full_output=True, xtol=tol)
     if ok != 1 or max(abs(e) for e in residual(x)) > 1e-8:
         raise ValueError(f"motor parameters: the ratings admit no equivalent circuit ({msg})")
     r = row(x)
