@@ -13,8 +13,9 @@ applies the frame's voltage vector as it is; phase quantities are not formed).
 
 **Inverter.** Average-value, lossless, no switching: it applies the voltage vector the
 controller asks for, limited to the space-vector modulator's linear range, a circle of
-radius ``V_dc / sqrt(3)`` (V peak phase). A longer demand is shortened along itself.
-Its DC power equals the machine's terminal power ``3/2 (v_d i_d + v_q i_q)`` (W).
+radius ``V_dc / sqrt(3)`` (V peak phase). The d axis has priority: ``v_d`` is limited to
+the circle, ``v_q`` to what is left (so in field weakening the flux current follows its
+reference and the torque current gives way). Its DC power equals the machine's terminal power ``3/2 (v_d i_d + v_q i_q)`` (W).
 
 **Rotor flux model and slip.** The controller's rotor flux ``psi`` (Wb, a state) follows
 the measured d current through the rotor time constant ``tau_r = L_r / R_r``::
