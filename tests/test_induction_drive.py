@@ -281,6 +281,23 @@ def test_rated_power_at_maximum_speed(drive):
     assert _winding_rms(math.hypot(o[foc.O_ID], o[foc.O_IQ]), motor) <= motor.max_current
 
 
+@pytest.mark.parametrize("n_rpm", [1283.0, 1800.0, 2484.0])
+def test_dynamic_braking_at_full_demand(drive, n_rpm):
+    """Braking (negative torque demand beyond every limit) from base to maximum speed:
+    850 kW taken from the shaft, flux on its reference, voltage within the limit, and the
+    DC link receives the shaft power less the copper loss (steady state: no stored
+    energy change)."""
+    motor, m, c = drive
+    sol = _fixed_speed(motor, m, c, n_rpm, -1e5, 4.0, rtol=1e-7, atol=1e-7)
+    y = sol.y[:, -1]
+    o = _outputs(motor, m, c, y, n_rpm * RPM, -1e5)
+    p_shaft = o[foc.O_T] * n_rpm * RPM
+    assert p_shaft == pytest.approx(-motor.rated_power, rel=5e-3)
+    assert math.hypot(y[2], y[3]) == pytest.approx(o[foc.O_PSIREF], rel=5e-3)
+    assert math.hypot(o[foc.O_VD], o[foc.O_VQ]) <= motor.dc_link_voltage / math.sqrt(3.0)
+    assert o[foc.O_PDC] == pytest.approx(p_shaft + copper_loss(y[:N_MOTOR], m), rel=5e-3)
+
+
 # --- a start: voltage limit, current limit, energy ---------------------------------------
 
 @pytest.fixture(scope="module")
