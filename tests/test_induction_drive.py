@@ -129,6 +129,22 @@ def test_motor_schema_refuses_bad_values():
         Motor(**{**data, "unknown_key": 1.0})
 
 
+def test_bad_motor_preset_is_one_line_naming_file_and_key(tmp_path, monkeypatch):
+    import ltdsim.drive_schema as ds
+
+    text = ds._motor_dir().joinpath(f"{PRESET}.toml").read_text(encoding="utf-8")
+    bad = text.replace("rotor_resistance = 0.020563", "rotor_resistance = -0.02")
+    assert bad != text
+    (tmp_path / "broken.toml").write_text(bad, encoding="utf-8")
+    monkeypatch.setattr(ds, "_motor_dir", lambda: tmp_path)
+    with pytest.raises(ValueError) as e:
+        ds.load_motor("broken")
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith("broken.toml: rotor_resistance:"), msg
+    with pytest.raises(ValueError, match="unknown motor preset 'nope'; available: broken"):
+        ds.load_motor("nope")
+
+
 # --- machine model against the equivalent circuit -------------------------------------
 
 @pytest.mark.parametrize("slip", [-0.05, -0.01, 0.002, 0.01, 0.03, 0.1, 0.4, 1.0])
