@@ -313,3 +313,47 @@ def test_axle_load_from_the_static_mass():
     row = ws_row_of(ws, 80000.0, gravity=9.81, motor_inertia=10.0)
     assert row[cr.W_Q] == pytest.approx(80000.0 * 9.81 / 8)
     assert row[cr.W_J] == pytest.approx(ws.inertia + ws.gear_ratio**2 * 10.0)
+
+
+def _ode3_coasting(v_reg, h=1e-4, t_end=0.3):
+    """The dry-rail wheelset from rest under a small torque (2 % of the peak), stepped
+    by the kernel's ode3 tableau at the study's step: the slip mode then sits on the
+    steepest part of the curve at standstill. Returns the creep force's mean and
+    standard deviation over the last 50 ms, N."""
+    from ltdsim.integrators import get_tableau
+
+    tab = get_tableau("ode3")
+    ws = ws_row_of(Wheelset(v_reg=v_reg), STUDY_STATIC_MASS, motor_inertia=15.0)
+    rail = RAILS["dry"]
+    torque = 0.02 * 0.5 * 2 * Q * R
+
+    def f(y):
+        dom, force = cr.wheelset_rate(y[0], y[1], torque, ws, rail)
+        return np.array([dom, force / M_AXLE])
+
+    y = np.zeros(2)
+    forces = []
+    for _ in range(int(round(t_end / h))):
+        k = []
+        for j in range(tab.stages):
+            k.append(f(y + h * sum(tab.A[j, m] * k[m] for m in range(j))))
+        y = y + h * sum(tab.b[j] * k[j] for j in range(tab.stages))
+        forces.append(cr.creep_force(y[0], y[1], ws, rail))
+    tail = np.array(forces[-int(0.05 / h):])
+    return tail.mean(), tail.std()
+
+
+def test_v_reg_keeps_ode3_stable_at_the_study_step():
+    """The regularisation speed's reason: the slip mode's rate at standstill,
+    (kA + kS)/2 2 f11 r^2 / (J v_reg), must stay under ode3's real-axis limit 2.51 / h.
+    At 1 m/s (about 1.05 / h on a dry rail) the start settles on the closed-form force
+    T / (r (1 + J / (M r^2))); at 0.3 m/s (3.5 / h) the same run rings with a force
+    swing many times the mean."""
+    rate = (RAILS["dry"][3] + RAILS["dry"][4]) / 2 * 2 * F11 * R**2 / J  # 1/s at v = 1 m/s
+    assert rate * 1e-4 / 1.0 < 2.51 < rate * 1e-4 / 0.3
+    torque = 0.02 * 0.5 * 2 * Q * R
+    mean, std = _ode3_coasting(1.0)
+    assert mean == pytest.approx(torque / (R * (1 + J / (M_AXLE * R**2))), rel=1e-3)
+    assert std < 1e-6 * mean
+    mean, std = _ode3_coasting(0.3)
+    assert std > 5 * torque / R
