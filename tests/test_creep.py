@@ -357,3 +357,69 @@ def test_v_reg_keeps_ode3_stable_at_the_study_step():
     assert std < 1e-6 * mean
     mean, std = _ode3_coasting(0.3)
     assert std > 5 * torque / R
+
+
+SP = slip_row(SlipControl(), WS, 4e4)
+
+
+@settings(deadline=None, max_examples=300)
+@given(limit=st.floats(-1e3, 6e4), demand=st.floats(-3e4, 5e4), w=st.floats(-2.0, 20.0),
+       v=st.floats(0.0, 40.0))
+def test_slip_control_law(limit, demand, w, v):
+    """The stated law over its whole input range: braking passes and holds the state;
+    in motoring the torque stays within [0, demand], equals the demand while the wheel
+    is under its set value and the limit at or above the demand, and the limit moves
+    down whenever the wheel slips past the set value (or sits above the demand), never
+    below 0 and never up past the demand."""
+    om = (v + w) / R
+    torque, rate = cr.slip_control(limit, demand, om, v, R, SP)
+    if demand <= 0.0:
+        assert (torque, rate) == (demand, 0.0)
+        return
+    assert 0.0 <= torque <= demand
+    w_ref = SP[cr.S_WSET] + SP[cr.S_WSLOPE] * v
+    slipping = (om * R - v) > w_ref
+    if not slipping and limit >= demand:
+        assert torque == demand
+    if (slipping or limit > demand) and limit > 0.0:
+        assert rate < 0.0
+    if limit <= 0.0:
+        assert rate >= 0.0
+    if limit >= demand:
+        assert rate <= 0.0
+    assert rate <= SP[cr.S_RECOV]
+
+
+def test_limit_left_above_a_lower_demand_follows_it_down():
+    """Back-calculation anti-windup: the state starts at the largest wheel torque (3 x
+    the wet peak), the demand is half the peak for 1 s, then 1.3 x the peak. The limit
+    has followed the low demand, so the slip after the step is caught as in a start
+    (slip velocity overshoot under 0.2 m/s above the set value); with the tracking off
+    the wound-up limit lets the wheel slip more than three times as far."""
+    wet = RAILS["wet"]
+    peak_t = _peak_ws(wet, 0.0) * R
+
+    def run(tracking):
+        sp = slip_row(SlipControl(), WS, 3 * peak_t)
+        sp[cr.S_TRACK] = tracking
+
+        def rhs(t, y):
+            om, v, lim = y
+            demand = 0.5 * peak_t if t < 1.0 else 1.3 * peak_t
+            tw, dl = cr.slip_control(lim, demand, om, v, R, sp)
+            dom, f = cr.wheelset_rate(om, v, tw, WS, wet)
+            return [dom, f / M_AXLE, dl]
+
+        sol = solve_ivp(rhs, (0.0, 4.0), [0.0, 0.0, 3 * peak_t], method="LSODA",
+                        rtol=1e-7, atol=[1e-7, 1e-7, 1e-3], max_step=0.005)
+        om, v, lim = sol.y
+        sc = SlipControl()
+        over = (om * R - v) - (sc.w_set + sc.w_slope * v)
+        return sol.t, over, lim
+
+    t, over, lim = run(SlipControl().bandwidth)
+    assert lim[np.searchsorted(t, 0.99)] == pytest.approx(0.5 * peak_t, rel=1e-3)
+    tracked = over[t > 1.0].max()
+    assert 0.0 < tracked < 0.2
+    t_off, over_off, _ = run(0.0)
+    assert over_off[t_off > 1.0].max() > 3 * tracked

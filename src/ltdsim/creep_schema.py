@@ -166,8 +166,9 @@ def slip_row(sc: SlipControl, ws_row: np.ndarray, max_wheel_torque: float) -> np
     ``J/r dw/dt = T_w`` (a pure integrator): a proportional gain ``J omega_c / r``
     (N m s/m) closes the loop at ``omega_c`` = ``bandwidth`` rad/s, and the integral gain
     ``gain omega_c / 4`` (N m/m) puts the PI zero a quarter of the bandwidth below it.
-    The limit recovers at ``max_wheel_torque / recovery_time`` N m/s."""
+    The limit recovers at ``max_wheel_torque / recovery_time`` N m/s and, left above a
+    lower demand, follows it down at the bandwidth (1/s)."""
     j, r = ws_row[_creep.W_J], ws_row[_creep.W_R]
     gain = j * sc.bandwidth / r
     return np.array([sc.w_set, sc.w_slope, gain, gain * sc.bandwidth / 4.0,
-                     max_wheel_torque / sc.recovery_time])
+                     max_wheel_torque / sc.recovery_time, sc.bandwidth])

@@ -93,9 +93,10 @@ SLIP_PARAMS = (
     "gain",        # proportional gain: torque cut per m/s of slip velocity above w_set, N m s/m
     "rate",        # integral gain: rate of the limit per m/s of slip velocity error, N m/m
     "recovery",    # largest rate at which the limit rises back, N m/s
+    "tracking",    # rate at which a limit above the demand follows it down, 1/s
 )
 N_SLIP_PARAMS = len(SLIP_PARAMS)
-(S_WSET, S_WSLOPE, S_GAIN, S_RATE, S_RECOV) = range(N_SLIP_PARAMS)
+(S_WSET, S_WSLOPE, S_GAIN, S_RATE, S_RECOV, S_TRACK) = range(N_SLIP_PARAMS)
 
 
 @njit(cache=True, forceinline=True)
@@ -159,23 +160,29 @@ def slip_control(torque_limit, demand, omega, v, radius, sp):
     rises) and the excess ``e = w - w_ref``,
 
         T_w = min(demand, torque_limit - gain max(e, 0)),  clipped to [0, demand]
-        d torque_limit / dt = -rate e, at most +recovery; the limit is held within
-            [0, demand] (no wind-up: it stops at the demand while the wheel grips, and
-            stops at 0 if the wheel still slips with no torque)
+        d torque_limit / dt = min(-rate e, recovery)
+            and, above the demand, at most -tracking (torque_limit - demand);
+            held at 0 from below and at the demand from above while it would pass them
 
     While ``w < w_ref`` the limit rises (at most at ``recovery`` N m/s) to the demand and
     the controller is transparent; when the wheel slips past ``w_ref`` the proportional
     term cuts the torque at once and the integral term lowers the limit until the slip
-    velocity is back at ``w_ref``, where the creep force is near its peak. Motoring only
-    (``demand >= 0``); a braking demand passes unchanged (wheel-slide protection is not
-    modelled). ``sp`` a :data:`SLIP_PARAMS` row.
+    velocity is back at ``w_ref``, where the creep force is near its peak. A limit left
+    above a demand that has fallen follows it down at ``tracking`` (1/s; back-calculation
+    anti-windup), so a slip after a demand cut meets a limit near the demand, not a
+    wound-up one. Motoring only: a braking demand (``<= 0``) passes unchanged and the
+    limit holds its value (wheel-slide protection is not modelled). The state starts at
+    the largest wheel torque. ``sp`` a :data:`SLIP_PARAMS` row.
     """
     if demand <= 0.0:
         return demand, 0.0
     e = omega * radius - v - (sp[S_WSET] + sp[S_WSLOPE] * abs(v))
     rate = min(-sp[S_RATE] * e, sp[S_RECOV])
-    # anti-windup: the limit stays within [0, demand]
-    if (torque_limit >= demand and rate > 0.0) or (torque_limit <= 0.0 and rate < 0.0):
+    if torque_limit > demand:
+        rate = min(rate, -sp[S_TRACK] * (torque_limit - demand))
+    elif torque_limit == demand and rate > 0.0:
+        rate = 0.0
+    if torque_limit <= 0.0 and rate < 0.0:
         rate = 0.0
     torque = torque_limit - sp[S_GAIN] * max(e, 0.0)
     torque = min(max(torque, 0.0), demand)
