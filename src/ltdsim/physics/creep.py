@@ -24,15 +24,16 @@ slope is Kalker's linear theory and the factors scale it; for large creep ``F`` 
 **Creep and its regularisation at standstill.** The creep is the slip velocity over the
 rolling speed, ``s = (omega r - v) / max(|v|, v_reg)`` (wheel angular speed ``omega``
 rad/s, rolling radius ``r`` m, vehicle speed ``v`` m/s). At ``|v| < v_reg`` the
-denominator is held at ``v_reg`` (m/s): the force then follows the slip velocity with the
-finite slope ``(kA + kS) f11 / (2 v_reg)`` (N s/m) instead of the infinite one
-``f11 / |v|`` of the steady rolling-contact theory, which grows without bound as the
-speed falls and whose assumption (the contact rolls over its own length many times
-while the creep changes) fails at standstill. The peak
-force at standstill is still ``Q mu`` of the slip velocity at the peak, reached at
-``w = s_peak v_reg``; ``v_reg`` (a wheelset parameter) is chosen (docs/creep.md) so that this slip
-velocity is small against ``1 / B`` (the friction hardly falls before the peak) and the
-wheelset's slip mode stays slower than the solver step. Above ``v_reg`` the law is the
+denominator is held at ``v_reg`` (m/s): the force then rises with the slip velocity at
+the finite slope ``(kA + kS) f11 / (2 v_reg)`` (N s/m), where the steady rolling-contact
+theory's ``(kA + kS) f11 / (2 |v|)`` grows without bound as the speed falls (and its
+assumption, that the contact rolls over its own length many times while the creep
+changes, fails at standstill). Below ``v_reg`` the force is a function of the slip
+velocity alone, the curve at ``v_reg``: its peak, the adhesion limit a start relies on,
+is kept; only the slip velocity at which a force is reached changes. ``v_reg`` (a
+wheelset parameter) is chosen (docs/creep.md) so that the slip velocity at the peak is
+small against ``1 / B`` and the wheelset's slip mode stays within the explicit solver's
+stability at the study's step. Above ``v_reg`` the law is the
 unregularised one, exactly.
 
 **Wheelset.** One driven wheelset (two wheels, each carrying half the axle load) is
@@ -46,8 +47,8 @@ vehicle receives ``2 F`` (N, positive forward). The motor turns at ``omega_m = i
 
 **Slip control (re-adhesion).** A creep-velocity controller limits the wheel torque so
 that the slip velocity ``w = omega r - v`` does not exceed a set value ``w_set +
-w_slope |v|`` (m/s) placed near the peak of the creep curve: see :func:`slip_control` for the law and
-docs/creep.md for the set value's derivation from the wet-rail curve.
+w_slope |v|`` (m/s) placed near the peak of the creep curve: see :func:`slip_control`
+for the law and docs/creep.md for the set value's derivation from the wet-rail curve.
 
 All quantities SI: N, m, s, rad/s, kg m^2, Pa.
 """
