@@ -423,3 +423,21 @@ def test_limit_left_above_a_lower_demand_follows_it_down():
     assert 0.0 < tracked < 0.2
     t_off, over_off, _ = run(0.0)
     assert over_off[t_off > 1.0].max() > 3 * tracked
+
+
+@pytest.mark.parametrize("name, floor", [("wet", 0.99), ("low-adhesion", 0.97),
+                                         ("dry", 0.90)])
+def test_control_on_each_rail_under_twice_the_peak(name, floor):
+    """A demand of twice the peak on each preset: no runaway (slip velocity at 20 s
+    within 0.1 m/s of the set value) and the mean force over 2-20 s at least ``floor`` of
+    the curve's peak at each speed. The set value is fitted to the wet curve, whose peak
+    lies at larger slip velocities than the dry one's: on the dry rail it holds 84-100 %
+    of the peak (mean 93 %)."""
+    rail = RAILS[name]
+    t, om, v, tw, f = _run(rail, 2.0 * _peak_ws(rail, 0.0) * R, control=True)
+    sc = SlipControl()
+    assert abs(om[-1] * R - v[-1] - (sc.w_set + sc.w_slope * v[-1])) < 0.1
+    late = t > 2.0
+    ratio = f[late][::20] / np.array([_peak_ws(rail, x) for x in v[late][::20]])
+    assert ratio.mean() > floor
+    assert ratio.max() < 1.0 + 1e-6
