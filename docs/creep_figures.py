@@ -16,13 +16,13 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy.integrate import solve_ivp  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from scipy.integrate import solve_ivp
 
-from ltdsim.creep_schema import RailCondition, SlipControl, Wheelset, rail_row, slip_row  # noqa: E402
-from ltdsim.creep_schema import wheelset_row as ws_row_of  # noqa: E402
-from ltdsim.physics import creep as cr  # noqa: E402
+from ltdsim.creep_schema import RailCondition, SlipControl, Wheelset, rail_row, slip_row
+from ltdsim.creep_schema import wheelset_row as ws_row_of
+from ltdsim.physics import creep as cr
 
 HERE = Path(__file__).resolve().parent
 STATIC_MASS = 66630.0        # kg, the study's locomotive
