@@ -776,17 +776,16 @@ def _air_interpolate(t, tr, w, y):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _air_start(t, y, events, n_events, tr, w):
-    """Start the pneumatic stepping at ``t`` (s) from the pneumatic states in ``y``:
-    a step of length 0 ending at ``t``, its rates evaluated."""
+def _air_start(t, y, tr, w):
+    """Start the pneumatic stepping at ``t`` (s) from the pneumatic states in ``y``: a
+    step of length 0 at ``t`` (its rates follow from :func:`_air_cut`)."""
     ab = w.air
     st = w.air_step[0]
     for q in range(tr.air.index[I_PIPE], ab.shape[1]):
-        ab[AIR_Y1, q] = y[q]
         ab[AIR_Y0, q] = y[q]
-    _air_rates(t, ab[AIR_Y1], events, n_events, tr, w, ab[AIR_F1])
-    for q in range(tr.air.index[I_PIPE], ab.shape[1]):
-        ab[AIR_F0, q] = ab[AIR_F1, q]
+        ab[AIR_Y1, q] = y[q]
+        ab[AIR_F0, q] = 0.0
+        ab[AIR_F1, q] = 0.0
     st["t0"] = t
     st["t1"] = t
     st["started"] = True
@@ -795,14 +794,20 @@ def _air_start(t, y, events, n_events, tr, w):
 @njit(cache=True, _nrt=False, forceinline=True)
 def _air_cut(t, events, n_events, tr, w):
     """End the current pneumatic step at ``t`` (s), inside it or at its end, because a
-    brake command was issued at ``t``: the states at ``t`` interpolated, their rates
-    evaluated with the new command."""
+    brake command was issued at ``t`` (or the stepping starts there,
+    :func:`_air_start`): the states at ``t`` interpolated, their rates evaluated with the
+    commands issued so far (at the start, the same rates at both ends)."""
     ab = w.air
     st = w.air_step[0]
+    z0 = tr.air.index[I_PIPE]
     _air_interpolate(t, tr, w, ab[AIR_YT])
-    for q in range(tr.air.index[I_PIPE], ab.shape[1]):
+    for q in range(z0, ab.shape[1]):
         ab[AIR_Y1, q] = ab[AIR_YT, q]
     _air_rates(t, ab[AIR_Y1], events, n_events, tr, w, ab[AIR_F1])
+    if st["t0"] == t:  # a step of length 0 (the start)
+        for q in range(z0, ab.shape[1]):
+            ab[AIR_Y0, q] = ab[AIR_Y1, q]
+            ab[AIR_F0, q] = ab[AIR_F1, q]
     st["t1"] = t
 
 
@@ -847,23 +852,38 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
         if t + h_try >= t_cap:
             h_try = t_cap - t
             hit = True
-        a10 = h_try * A[1, 0]
-        for q in range(z0, ny):
-            yt[q] = y0[q] + a10 * f0[q]
-        _air_rates(t + C[1] * h_try, yt, events, n_events, tr, w, k2)
-        a20, a21 = h_try * A[2, 0], h_try * A[2, 1]
-        for q in range(z0, ny):
-            yt[q] = y0[q] + a20 * f0[q] + a21 * k2[q]
-        _air_rates(t + C[2] * h_try, yt, events, n_events, tr, w, k3)
-        b0, b1, b2 = h_try * B[0], h_try * B[1], h_try * B[2]
-        total = 0.0
-        for q in range(z0, ny):
-            y1[q] = y0[q] + (b0 * f0[q] + b1 * k2[q] + b2 * k3[q])
-            total += y1[q]
+        # stages 2 and 3, then the rates at the step's end (stage s reads the state
+        # row src and writes the rates row dst; one call of the brake's law, so that it
+        # is compiled once here)
+        finite = True
+        for stage in range(1, 4):
+            if stage < 3:
+                src = AIR_YT
+                dst = AIR_K2 if stage == 1 else AIR_K3
+                a0, a1 = h_try * A[stage, 0], h_try * A[stage, 1]
+                if stage == 1:
+                    for q in range(z0, ny):
+                        yt[q] = y0[q] + a0 * f0[q]
+                else:
+                    for q in range(z0, ny):
+                        yt[q] = y0[q] + a0 * f0[q] + a1 * k2[q]
+                ts = t + C[stage] * h_try
+            else:
+                src = AIR_Y1
+                dst = AIR_F1
+                b0, b1, b2 = h_try * B[0], h_try * B[1], h_try * B[2]
+                total = 0.0
+                for q in range(z0, ny):
+                    y1[q] = y0[q] + (b0 * f0[q] + b1 * k2[q] + b2 * k3[q])
+                    total += y1[q]
+                finite = total - total == 0.0
+                if not finite:
+                    break
+                ts = t_cap if hit else t + h_try
+            _air_rates(ts, ab[src], events, n_events, tr, w, ab[dst])
         t_new = t_cap if hit else t + h_try
         err = np.inf
-        if total - total == 0.0:
-            _air_rates(t_new, y1, events, n_events, tr, w, f1)
+        if finite:
             e0, e1, e2, e3 = h_try * E[0], h_try * E[1], h_try * E[2], h_try * E[3]
             err = 0.0
             for q in range(z0, ny):
@@ -1438,8 +1458,10 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     t_stop = min(r_stop, n_rec - 1) * out_dt
     eps = 1e-9 * out_dt
     fresh = True  # K[0:ny] must be (re)computed at (t, y)
+    cut = False  # the pneumatic step must end at t (a command, or the start)
     if split and not air_st["started"]:
-        _air_start(t, y, ctl.events, st["n_events"], tr, w)
+        _air_start(t, y, tr, w)
+        cut = True
     while True:
         # ---- driver: controller sample, brake commands (at the start of the step)
         sampled = speed_mode and _sample_due(t, st, ts, eps)
@@ -1454,10 +1476,12 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
                 return EVENTS_FULL, t
             if issued > 0:
                 fresh = True
-                if split:  # the pneumatic step ends here, with the new command's rates
-                    _air_cut(t, ctl.events, st["n_events"], tr, w)
+                cut = split  # the pneumatic step ends here, with the new command's rates
         a_dem = st["a_dem"]
         n_ev = st["n_events"]
+        if cut:
+            _air_cut(t, ctl.events, n_ev, tr, w)
+            cut = False
         if split and t >= air_st["t1"] - eps and t < t_last - eps:
             # the pneumatic step ends here: take the next one, to the next scheduled
             # command at most
