@@ -292,3 +292,49 @@ profile_file = "alignment.csv"
     with pytest.raises(ScenarioError) as err:
         load_scenario(base)
     assert "alignment.csv line 2" in str(err.value) and "\n" not in str(err.value).strip()
+
+
+# ---------------------------------------------------------------- curve-limit, end to end
+def test_curve_limit_fed_back_as_steady_buff_reaches_the_limit():
+    """``curve_limit`` for a pair of identical wagons gives a buff force; a simulated
+    train of those wagons held in steady buff by that force (the lead locomotive's
+    dynamic brake against a pusher's full notch, no resistance) on that curve has the
+    middle wagons' L/V at Nadal's limit within 1 %."""
+    from ltdsim.curving import curve_limit
+    from ltdsim.simulate import simulate
+
+    from conftest import build
+
+    radius, cant, speed = 200.0, 0.05, 12.0
+    wagon = {"name": "wagon", "mass": 1.3e5, "length": 15.0}
+    loco = {"name": "loco", "mass": 1.3e5, "length": 15.0, "powered": True}
+    d = {
+        "solver": {"method": "rk4", "dt": 1e-3, "t_end": 15.0, "output_interval": 0.5},
+        "vehicles": [loco] + [dict(wagon) for _ in range(6)] + [dict(loco, name="pusher")],
+        "couplers": {"default": {"model": "linear", "stiffness": 5e7, "damping": 1e6,
+                                 "slack": 0.0}},
+        "track": {"curve": [[0.0, radius]], "cant": [[0.0, cant]], "curve_h": 0.0},
+        "traction": {"max_force": 1e8, "max_power": 1e9, "adhesion_mass": 1e8,
+                     "time_constant": 1.0},
+        "locomotives": [{"name": "lead", "vehicles": [0]},
+                        {"name": "pusher", "vehicles": [7],
+                         "notch_profile": [[0.0, 0.0], [1.0, 8.0]]}],
+        "driver": {"mode": "force", "force_profile": [[0.0, 0.0], [1.0, 0.0], [1.0 + 1e-9, 0.0]]},
+        "initial": {"speed": speed},
+        "curving": {},
+    }
+    sc = build(d)
+    w = sc.vehicles[3]
+    lim = curve_limit(w, w, radius, cant, speed)
+    assert 1e5 < lim.buff_force < 5e7
+    # the pusher at full notch gives max_force: set both ends to the limit force
+    d["locomotives"][1]["max_force"] = lim.buff_force
+    d["driver"]["force_profile"] = [[0.0, 0.0], [1.0, 0.0], [1.0 + 1e-9, -lim.buff_force]]
+    ds = simulate(build(d))
+    end = ds.isel(time=-1)
+    np.testing.assert_allclose(end.coupler_force.values, -lim.buff_force, rtol=1e-4)
+    np.testing.assert_allclose(end.velocity.values, speed, rtol=1e-3)
+    lv = end.wheel_l_over_v.values[2:6]  # wagons with wagons on both sides
+    print(f"limit {lim.buff_force:.6g} N, L/V {lv} against {lim.limit:.6g}")
+    np.testing.assert_allclose(lv, lim.limit, rtol=0.01)
+    assert float(ds.nadal_limit) == pytest.approx(lim.limit, rel=1e-12)

@@ -465,7 +465,7 @@ def pair_l_over_v(front, rear, radius, cant, speed, buff, share=1.0, rail_spacin
 
 
 def curve_limit(front, rear, radius, cant, speed, flange_angle_deg=75.0, friction=0.5,
-                share=1.0, rail_spacing=1.5, g=9.81, f_max=5.0e6) -> CurveLimit:
+                share=1.0, rail_spacing=1.5, g=9.81, f_max=5.0e7) -> CurveLimit:
     """The largest steady buff force (N) the coupler between vehicles ``front`` and
     ``rear`` may carry on a circular curve before the worse wheel's L/V reaches Nadal's
     limit (root of L/V(F) = limit by Brent's method on [0, ``f_max``])."""

@@ -230,8 +230,8 @@ class VehicleGeometry(_Strict):
     cg_height: float | None = Field(None, ge=0.2, le=5.0,
                                     description="centre of gravity of the loaded vehicle "
                                                 "above the rail, m")
-    axles: int | None = Field(None, ge=2, le=16, description="number of axles (two bogies "
-                                                             "of axles / 2 each), -")
+    axles: int | None = Field(None, ge=2, le=16, description="number of axles, half of them "
+                                                             "in each of the two bogies, -")
 
 
 class ResolvedGeometry(typing.NamedTuple):
@@ -670,7 +670,9 @@ class Track(_Strict):
                                          "also covers everything before it")
     curve: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                           description="[start position m, radius m] pieces; starts strictly "
-                                      "increasing, radius 0 (straight) or 20 to 1e6")
+                                      "increasing, radius 0 (straight) or 20 to 1e6, + "
+                                      "turning left, - turning right (the side matters to "
+                                      "the curving indicators only)")
     transitions: Points = Field([], description="[position m, length m] clothoids: the "
                                                 "curvature step of `curve` at that position "
                                                 "becomes a ramp, linear in distance, from "

@@ -424,4 +424,8 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
                        "1) is the lead; coupler index 0 (coupler_number 1) joins the lead "
                        "and the second vehicle",
     })
+    if scenario.curving is not None:  # after the run, from the records (ltdsim.curving)
+        from ltdsim.curving import add_curving
+
+        ds = add_curving(ds, scenario)
     return ds
