@@ -338,3 +338,31 @@ def test_curve_limit_fed_back_as_steady_buff_reaches_the_limit():
     print(f"limit {lim.buff_force:.6g} N, L/V {lv} against {lim.limit:.6g}")
     np.testing.assert_allclose(lv, lim.limit, rtol=0.01)
     assert float(ds.nadal_limit) == pytest.approx(lim.limit, rel=1e-12)
+
+
+def test_curve_limit_cli_prints_the_function_and_refuses_bad_input():
+    """`ltdsim curve-limit` prints curve_limit's force for the vehicles at the coupler;
+    a coupler or radius out of range is one line naming the option."""
+    from typer.testing import CliRunner
+
+    from ltdsim.cli import app
+    from ltdsim.curving import curve_limit
+    from ltdsim.scenario import Curving, load_scenario
+
+    from conftest import ROOT
+
+    path = ROOT / "scenarios" / "heavy-haul.toml"
+    runner = CliRunner()
+    res = runner.invoke(app, ["curve-limit", str(path), "--coupler", "107", "--radius", "300",
+                              "--cant", "0.05", "--speed", "15"])
+    assert res.exit_code == 0, res.output
+    sc = load_scenario(path)
+    c = Curving()
+    lim = curve_limit(sc.vehicles[106], sc.vehicles[107], 300.0, 0.05, 15.0, c.flange_angle,
+                      c.flange_friction, c.leading_share, 1.5, 9.81, c.prudhomme_alpha)
+    assert f"{lim.buff_force / 1e3:.0f}" in res.output
+    assert f"{lim.buff_force_prudhomme / 1e3:.0f}" in res.output
+    for args, key in ((["--coupler", "214", "--radius", "300"], "--coupler"),
+                      (["--coupler", "3", "--radius", "10"], "--radius")):
+        bad = runner.invoke(app, ["curve-limit", str(path), *args])
+        assert bad.exit_code == 2 and key in bad.output and "Traceback" not in bad.output

@@ -430,80 +430,75 @@ def add_curving(ds: xr.Dataset, scenario, chunk: int = 2000) -> xr.Dataset:
 # ------------------------------------------------------------------------ curve-limit
 @dataclass
 class CurveLimit:
-    """Largest steady buff force a pair of vehicles carries on a curve."""
+    """Largest steady buff force a pair of vehicles carries on a curve (N; inf where the
+    limit is not reached below the search bound, 0 where it is exceeded without force)."""
 
-    buff_force: float          # N (magnitude), inf if L/V never reaches the limit
-    limit: float               # Nadal's L/V limit, -
-    l_over_v_at_zero: float    # L/V with no coupler force, -
-    governing: str             # "front" or "rear" vehicle of the pair
-    wheelset_force: float      # leading wheelset lateral force at the limit, N
-    prudhomme: float           # Prud'homme limit of the governing vehicle, N
-
-
-def pair_l_over_v(front, rear, radius, cant, speed, buff, share=1.0, rail_spacing=1.5,
-                  g=9.81) -> np.ndarray:
-    """L/V of the worse wheel of ``front`` and of ``rear`` (two :class:`Vehicle`), coupled
-    on a circular curve of ``radius`` (m, + left) with ``cant`` (m) at ``speed`` (m/s),
-    with a steady buff force ``buff`` (N, >= 0) in every coupler: the front vehicle
-    follows another like it and the rear one leads another like it. Returns (2,) or
-    (k, 2) for an array of forces."""
-    vehicles = [front, front, rear, rear]
-    geo = TrainGeometry.of(vehicles)
-    lengths = np.array([v.length for v in vehicles])
-    centres = -np.concatenate(([0.0], np.cumsum(0.5 * (lengths[:-1] + lengths[1:]))))
-    centres += 1000.0
-    align = Alignment.from_knots([0.0, 2000.0], [1.0 / radius], [1.0 / radius], [cant],
-                                 [cant])
-    buff = np.atleast_1d(np.asarray(buff, dtype=float))
-    k = buff.size
-    x = np.broadcast_to(centres, (k, 4))
-    v = np.full((k, 4), float(speed))
-    f = -np.repeat(buff[:, None], 3, axis=1)
-    st = curving_state(align, geo, x, v, f, share, rail_spacing, g)
-    lv = st.l_over_v[:, 1:3].max(axis=-1)
-    return lv
+    buff_force: float            # N, L/V of the worse wheel reaches Nadal's limit
+    limit: float                 # Nadal's L/V limit, -
+    l_over_v_at_zero: float      # worse wheel's L/V with no coupler force, -
+    governing: str               # "front" or "rear" vehicle of the pair at that force
+    buff_force_prudhomme: float  # N, a leading wheelset's force reaches Prud'homme's limit
+    prudhomme: tuple             # Prud'homme limit of the front and rear vehicle, N
 
 
-def curve_limit(front, rear, radius, cant, speed, flange_angle_deg=75.0, friction=0.5,
-                share=1.0, rail_spacing=1.5, g=9.81, f_max=5.0e7) -> CurveLimit:
-    """The largest steady buff force (N) the coupler between vehicles ``front`` and
-    ``rear`` may carry on a circular curve before the worse wheel's L/V reaches Nadal's
-    limit (root of L/V(F) = limit by Brent's method on [0, ``f_max``])."""
-    from scipy.optimize import brentq
-
-    lim = float(nadal_limit(math.radians(flange_angle_deg), friction))
-
-    def worst(fb):
-        return float(np.max(pair_l_over_v(front, rear, radius, cant, speed, fb, share,
-                                          rail_spacing, g)))
-
-    lv0 = worst(0.0)
-    geo = TrainGeometry.of([front, rear])
-    prud = prudhomme_limit(geo.mass * g / geo.axles)
-    if lv0 >= lim:
-        return CurveLimit(0.0, lim, lv0, _which(front, rear, radius, cant, speed, 0.0, share,
-                                                rail_spacing, g), math.nan, math.nan)
-    if worst(f_max) < lim:
-        return CurveLimit(math.inf, lim, lv0, "", math.nan, math.nan)
-    fb = brentq(lambda x: worst(x) - lim, 0.0, f_max, xtol=1.0, rtol=1e-10)
-    who = _which(front, rear, radius, cant, speed, fb, share, rail_spacing, g)
-    i = 0 if who == "front" else 1
-    return CurveLimit(fb, lim, lv0, who, _pair_wheelset(front, rear, radius, cant, speed, fb,
-                                                        share, rail_spacing, g)[i],
-                      float(prud[i]))
-
-
-def _which(front, rear, radius, cant, speed, fb, share, rail_spacing, g):
-    lv = pair_l_over_v(front, rear, radius, cant, speed, fb, share, rail_spacing, g)[0]
-    return "front" if lv[0] >= lv[1] else "rear"
-
-
-def _pair_wheelset(front, rear, radius, cant, speed, fb, share, rail_spacing, g):
+def _pair_state(front, rear, radius, cant, speed, buff, share, rail_spacing, g):
+    """Curving state of ``front, front, rear, rear`` on a circle in steady buff (N, each
+    of the three couplers), for an array of buff forces; vehicles 1 and 2 are the pair."""
     vehicles = [front, front, rear, rear]
     geo = TrainGeometry.of(vehicles)
     lengths = np.array([v.length for v in vehicles])
     centres = 1000.0 - np.concatenate(([0.0], np.cumsum(0.5 * (lengths[:-1] + lengths[1:]))))
-    align = Alignment.from_knots([0.0, 2000.0], [1.0 / radius], [1.0 / radius], [cant], [cant])
-    st = curving_state(align, geo, centres[None], np.full((1, 4), float(speed)),
-                       -np.full((1, 3), fb), share, rail_spacing, g)
-    return np.max(np.abs(st.wheelset_force[0, 1:3]), axis=-1)
+    align = Alignment.from_knots([0.0, 2000.0], [1.0 / radius], [1.0 / radius], [cant],
+                                 [cant])
+    buff = np.atleast_1d(np.asarray(buff, dtype=float))
+    k = buff.size
+    return curving_state(align, geo, np.broadcast_to(centres, (k, 4)),
+                         np.full((k, 4), float(speed)), -np.repeat(buff[:, None], 3, axis=1),
+                         share, rail_spacing, g)
+
+
+def pair_l_over_v(front, rear, radius, cant, speed, buff, share=1.0, rail_spacing=1.5,
+                  g=9.81) -> np.ndarray:
+    """L/V of the worse wheel of ``front`` and of ``rear`` (two scenario vehicles),
+    coupled on a circular curve of ``radius`` (m, + left) with ``cant`` (m) at ``speed``
+    (m/s), with a steady buff force ``buff`` (N, >= 0, scalar or array) in every coupler:
+    the front vehicle follows another like it and the rear one leads another like it.
+    Returns an array (forces, 2)."""
+    st = _pair_state(front, rear, radius, cant, speed, buff, share, rail_spacing, g)
+    return st.l_over_v[:, 1:3].max(axis=-1)
+
+
+def curve_limit(front, rear, radius, cant, speed, flange_angle_deg=75.0, friction=0.5,
+                share=1.0, rail_spacing=1.5, g=9.81, prudhomme_alpha=0.85,
+                f_max=5.0e7) -> CurveLimit:
+    """The largest steady buff force (N) the coupler between vehicles ``front`` and
+    ``rear`` may carry on a circular curve (``radius`` m, ``cant`` m, ``speed`` m/s)
+    before the worse wheel's L/V reaches Nadal's limit (``flange_angle_deg``,
+    ``friction``), and before a leading wheelset's lateral force reaches Prud'homme's
+    limit (``prudhomme_alpha``): roots by Brent's method on [0, ``f_max``] N."""
+    from scipy.optimize import brentq
+
+    lim = float(nadal_limit(math.radians(flange_angle_deg), friction))
+    geo = TrainGeometry.of([front, rear])
+    prud = prudhomme_limit(geo.mass * g / geo.axles, prudhomme_alpha)
+
+    def lv(fb):
+        return pair_l_over_v(front, rear, radius, cant, speed, fb, share, rail_spacing, g)[0]
+
+    def hratio(fb):
+        st = _pair_state(front, rear, radius, cant, speed, fb, share, rail_spacing, g)
+        return float(np.max(np.abs(st.wheelset_force[0, 1:3]).max(axis=-1) / prud))
+
+    def root(fun, target):
+        if fun(0.0) >= target:
+            return 0.0
+        if fun(f_max) < target:
+            return math.inf
+        return brentq(lambda x: fun(x) - target, 0.0, f_max, xtol=1.0, rtol=1e-12)
+
+    fb = root(lambda x: float(np.max(lv(x))), lim)
+    fp = root(hratio, 1.0)
+    at = lv(fb if math.isfinite(fb) else f_max)
+    return CurveLimit(buff_force=fb, limit=lim, l_over_v_at_zero=float(np.max(lv(0.0))),
+                      governing="front" if at[0] >= at[1] else "rear",
+                      buff_force_prudhomme=fp, prudhomme=(float(prud[0]), float(prud[1])))
