@@ -342,6 +342,11 @@ def run(
         if brake_plot is not None:
             _check_output(brake_plot, "--plot (the brake-pressure figure beside it)",
                           image_suffixes(), inputs=(file,))
+        curving_plot = (curving_figure_path(plot) if plot is not None
+                        and sc.curving is not None else None)
+        if curving_plot is not None:
+            _check_output(curving_plot, "--plot (the curving figure beside it)",
+                          image_suffixes(), inputs=(file,))
         label = _label(sc)  # plain text: _table keeps it so
         ds = _simulate(sc, quiet, file)
     except (ScenarioError, SimulationError) as exc:
@@ -374,6 +379,7 @@ def run(
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
     _print_motion(ds)
     brake = _print_fluid_brake(ds)
+    curving = _print_curving(ds)
     warning = travel_warning(ds, sc)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}")
@@ -391,6 +397,11 @@ def run(
 
             save_brake_pressures(ds, brake_plot, summary=brake)
             _say(f"brake-pressure figure written to {brake_plot}")
+        if curving_plot is not None and curving is not None:
+            from ltdsim.plotting import save_curving
+
+            save_curving(ds, curving_plot, summary=curving)
+            _say(f"curving figure written to {curving_plot}")
     except OSError as exc:
         err_console.print(f"[bold red]error (writing failed):[/] "
                           f"{escape(str(exc.filename or output or plot))}: "
@@ -430,6 +441,36 @@ def _print_motion(ds) -> None:
 def _fluid(sc) -> bool:
     """Whether the scenario brakes with the fluid air brake (``brake.model = "fluid"``)."""
     return getattr(sc.brake, "model", "lumped") == "fluid"
+
+
+def curving_figure_path(plot: Path) -> Path:
+    """Where ``ltdsim run --plot FIG`` writes the curving figure of a run with
+    ``[curving]``: beside FIG, ``<stem>-curving<suffix>``."""
+    return plot.with_name(f"{plot.stem}-curving{plot.suffix}")
+
+
+def _print_curving(ds) -> dict | None:
+    """The worst wheel L/V, wheelset force and coupler angle of a run with [curving]."""
+    from ltdsim.summary import curving_summary
+
+    c = curving_summary(ds)
+    if c is None:
+        return None
+    _say(f"curving: worst wheel L/V {c['max_l_over_v']:.3f} ({100 * c['l_over_v_share_of_limit']:.0f} % "
+         f"of Nadal's {c['nadal_limit']:.3f}) at vehicle {c['l_over_v_vehicle']}, "
+         f"{c['l_over_v_time_s']:.1f} s, chainage {c['l_over_v_position_m']:.0f} m; "
+         f"largest wheelset lateral force {c['max_wheelset_force_N'] / 1e3:.1f} kN "
+         f"({100 * c['wheelset_force_share_of_limit']:.0f} % of Prud'homme's "
+         f"{c['prudhomme_limit_N'] / 1e3:.1f} kN) at vehicle {c['wheelset_force_vehicle']}, "
+         f"{c['wheelset_force_time_s']:.1f} s")
+    if "max_coupler_angle_rad" in c:
+        _say(f"curving: largest coupler angle {1e3 * c['max_coupler_angle_rad']:.1f} mrad at coupler "
+             f"{c['coupler_angle_coupler']}, {c['coupler_angle_time_s']:.1f} s; lateral coupler "
+             f"components up to {c['max_inward_coupler_force_N'] / 1e3:.1f} kN inward (draft), "
+             f"{c['max_outward_coupler_force_N'] / 1e3:.1f} kN outward (buff)"
+             + (f"; {c['couplers_at_stops']} couplers reach their angle stops"
+                if "couplers_at_stops" in c else ""))
+    return c
 
 
 def brake_figure_path(plot: Path) -> Path:
