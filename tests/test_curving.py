@@ -366,3 +366,64 @@ def test_curve_limit_cli_prints_the_function_and_refuses_bad_input():
                       (["--coupler", "3", "--radius", "10"], "--radius")):
         bad = runner.invoke(app, ["curve-limit", str(path), *args])
         assert bad.exit_code == 2 and key in bad.output and "Traceback" not in bad.output
+
+
+def test_run_report_and_figure_name_the_worst_place(tmp_path):
+    """`ltdsim run --plot --report` on a short train pushed into a curve: the printed
+    and reported worst L/V is the largest value of ``wheel_l_over_v``, at its vehicle;
+    the figure and the page are written; in buff every lateral component points out."""
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    from ltdsim.cli import app
+
+    toml = tmp_path / "push.toml"
+    toml.write_text("""name = "pushed"
+[solver]
+method = "rk4"
+dt = 1e-3
+t_end = 6.0
+output_interval = 0.5
+[[vehicles]]
+name = "wagon"
+count = 4
+mass = 8e4
+length = 15.0
+[[vehicles]]
+name = "loco"
+mass = 1.2e5
+length = 20.0
+powered = true
+[couplers.default]
+model = "linear"
+stiffness = 5e7
+damping = 1e6
+[track]
+curve = [[-200.0, 0.0], [-150.0, -250.0]]
+transitions = [[-150.0, 30.0]]
+[traction]
+max_force = 1e8
+max_power = 1e9
+adhesion_mass = 1e8
+[driver]
+mode = "force"
+force_profile = [[0.0, 0.0], [2.0, 6e5]]
+[initial]
+speed = 5.0
+[curving]
+""")
+    res = CliRunner().invoke(app, ["run", str(toml), "-q", "-o", str(tmp_path / "r.nc"),
+                                   "-p", str(tmp_path / "r.png"),
+                                   "--report", str(tmp_path / "rep")])
+    assert res.exit_code == 0, res.output
+    ds = xr.load_dataset(tmp_path / "r.nc")
+    lv = ds.wheel_l_over_v.values
+    k, i = np.unravel_index(np.argmax(lv), lv.shape)
+    assert f"worst wheel L/V {lv[k, i]:.3f}" in " ".join(res.output.split())
+    assert f"at vehicle {i + 1}," in res.output
+    assert (tmp_path / "r-curving.png").stat().st_size > 10_000
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert f"<b>{lv[k, i]:.3f}</b>" in page and "curving_worst.csv" in page
+    # every coupler is in buff once the loco pushes: outward components only
+    assert float(ds.coupler_lateral_force.isel(time=-1).max()) <= 0.0
+    assert float(ds.coupler_force.isel(time=-1).max()) < 0.0

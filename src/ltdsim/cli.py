@@ -325,6 +325,9 @@ def run(
         "--plot", "-p", help="write an overview figure (.png, .svg, .pdf, ...)")] = None,
     set_: Annotated[Optional[list[str]], typer.Option("--set", "-s", help=SET_HELP)] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
+    report: Annotated[Optional[Path], typer.Option(
+        "--report", help="write a one-page HTML report of the run (coupler peaks and, with "
+                         "[curving], the curving-safety section) into this folder")] = None,
 ) -> None:
     """Simulate one scenario (optionally one named case) and summarise coupler forces."""
     from ltdsim.io import save_result
@@ -335,6 +338,8 @@ def run(
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
         if plot is not None:  # (matplotlib only when a figure is asked for)
             _check_output(plot, "--plot", image_suffixes(), inputs=(file,))
+        if report is not None:
+            _check_folder(report, "--report")
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
@@ -402,6 +407,11 @@ def run(
 
             save_curving(ds, curving_plot, summary=curving)
             _say(f"curving figure written to {curving_plot}")
+        if report is not None:
+            from ltdsim.report import write_run_report
+
+            page = write_run_report(ds, report, f"ltdsim run: {label}")
+            _say(f"report written to {page}")
     except OSError as exc:
         err_console.print(f"[bold red]error (writing failed):[/] "
                           f"{escape(str(exc.filename or output or plot))}: "

@@ -332,8 +332,7 @@ def curving_figure(ds: xr.Dataset, summary: dict | None = None):
     fig, axes = plt.subplots(3, 1, figsize=(WIDTH, 10.5),
                              gridspec_kw={"height_ratios": [1.3, 1.0, 1.0]})
     ax = axes[0]
-    colours = plt.get_cmap("magma_r").copy()
-    colours.set_over("tab:red")
+    colours = plt.get_cmap("magma_r").with_extremes(over="tab:red")
     dt = (t[-1] - t[0]) / max(t.size - 1, 1)
     image = ax.imshow(np.where(np.isfinite(lv), lv, nadal * 2).T, aspect="auto",
                       interpolation="nearest", cmap=colours, vmin=0.0, vmax=nadal,
