@@ -750,6 +750,10 @@ class Track(_Strict):
             ends.append(pos)
         if len(set(ends)) != len(ends):
             raise ValueError("transitions: two transitions at one break")
+        if self.profile_file is not None and not self.profile:
+            raise ValueError(f"profile_file ({self.profile_file!r}) is read when the scenario "
+                             "file is loaded (ltdsim.load_scenario); give it in the file, or "
+                             "the points as track.profile")
         if self.profile and (self.transitions or self.cant != [(0.0, 0.0)]
                              or self.curve != [(0.0, 0.0)]):
             raise ValueError("profile (profile_file) replaces curve, transitions and cant: "
