@@ -326,8 +326,9 @@ def run(
     set_: Annotated[Optional[list[str]], typer.Option("--set", "-s", help=SET_HELP)] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
     report: Annotated[Optional[Path], typer.Option(
-        "--report", help="write a one-page HTML report of the run (coupler peaks and, with "
-                         "[curving], the curving-safety section) into this folder")] = None,
+        "--report", help="write a one-page HTML report of the run (coupler peaks and, when the "
+                         "scenario has a curving table, the curving-safety section) into "
+                         "this folder")] = None,
 ) -> None:
     """Simulate one scenario (optionally one named case) and summarise coupler forces."""
     from ltdsim.io import save_result
@@ -730,7 +731,7 @@ def curve_limit_cmd(
     """The largest steady buff force the two vehicles at a coupler can carry on a curve
     before the worse wheel's L/V reaches Nadal's limit (and, beside it, before a leading
     wheelset reaches Prud'homme's limit): "how hard can we push here". Limits and the
-    wheelset share come from the scenario's [curving] table (its defaults without one)."""
+    wheelset share come from the scenario's curving table (its defaults without one)."""
     import math
 
     from ltdsim.curving import curve_limit
