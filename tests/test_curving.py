@@ -427,3 +427,42 @@ speed = 5.0
     # every coupler is in buff once the loco pushes: outward components only
     assert float(ds.coupler_lateral_force.isel(time=-1).max()) <= 0.0
     assert float(ds.coupler_force.isel(time=-1).max()) < 0.0
+
+
+def test_add_curving_on_records_and_angle_stops():
+    """``add_curving`` on hand-made records of identical wagons standing on a 250 m
+    circle in steady buff (no kernel): every coupler angle is L / (2R); the lateral
+    component is -F sin(L / 2R) (outwards); with stops below that angle every coupler
+    is counted at its stops, with stops above it none."""
+    import json
+
+    import xarray as xr
+
+    from ltdsim.curving import add_curving
+    from ltdsim.scenario import Scenario
+    from ltdsim.summary import curving_summary
+
+    from conftest import train_dict
+
+    n, L, R, F = 6, 15.0, 250.0, 4e5
+    d = train_dict([8e4] * n, powered=(0,))
+    for v in d["vehicles"]:  # the same plan geometry for the locomotive
+        v["geometry"] = {"pivot_overhang": 1.2, "coupler_length": 0.9}
+    d["track"] = {"curve": [[-500.0, R]]}
+    d["curving"] = {"coupler_angle_limit": 0.02}
+    sc = Scenario.from_dict(d, "test")
+    x = -L * np.arange(n) + np.array([[0.0], [5.0]])
+    ds = xr.Dataset({"position": (("time", "vehicle"), x),
+                     "velocity": (("time", "vehicle"), np.full((2, n), 3.0)),
+                     "coupler_force": (("time", "coupler"), np.full((2, n - 1), -F))},
+                    coords={"time": [0.0, 1.0], "vehicle": np.arange(n),
+                            "coupler": np.arange(n - 1)},
+                    attrs={"scenario_json": json.dumps(sc.to_dict())})
+    out = add_curving(ds, sc)
+    np.testing.assert_allclose(out.coupler_angle.values, L / (2 * R), atol=1e-9)
+    np.testing.assert_allclose(out.coupler_lateral_force.values, -F * np.sin(L / (2 * R)),
+                               rtol=1e-9)
+    assert curving_summary(out)["couplers_at_stops"] == n - 1
+    d["curving"] = {"coupler_angle_limit": 0.04}
+    ds.attrs["scenario_json"] = json.dumps(Scenario.from_dict(d, "test").to_dict())
+    assert curving_summary(add_curving(ds, sc))["couplers_at_stops"] == 0
