@@ -76,6 +76,12 @@ def test_track_transitions_build_the_ramps():
     kap = np.array([0.0 if r == 0 else 1.0 / r for _, r in steps])
     total = np.sum(kap * np.diff(starts))
     assert total == pytest.approx(300.0 / 300.0, rel=1e-12)  # 240 m arc + 2 x 60 m / 2
+    # the kernel's track arrays are those steps
+    from ltdsim.lowering import merge_track
+
+    _, _, curv = merge_track(tr.gradient, steps)
+    nonzero = np.array([0.0 if r == 0 else 1.0 / r for _, r in steps])
+    np.testing.assert_array_equal(curv, nonzero)
     # and without transitions the kernel reads `curve` unchanged
     plain = Track(curve=[(0.0, 0.0), (100.0, 300.0), (400.0, 0.0)])
     assert plain.resistance_curve() == plain.curve
