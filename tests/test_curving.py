@@ -472,3 +472,26 @@ def test_add_curving_on_records_and_angle_stops():
     d["curving"] = {"coupler_angle_limit": 0.04}
     ds.attrs["scenario_json"] = json.dumps(Scenario.from_dict(d, "test").to_dict())
     assert curving_summary(add_curving(ds, sc))["couplers_at_stops"] == 0
+
+
+@settings(max_examples=25, deadline=None)
+@given(force=st.floats(1e4, 5e6), radius=st.floats(100.0, 2000.0),
+       overhang=st.floats(0.5, 2.5), left=st.booleans())
+def test_l_over_v_of_like_vehicles_in_steady_buff_closed_form(force, radius, overhang, left):
+    """Like vehicles on a circle at standstill in steady buff F: each end pushes outwards
+    with F sin(L / 2R), each bogie takes that much (the yaw moments of the two ends
+    cancel, so the overhang drops out), the roll moment 2 F sin(L / 2R) h_c moves
+    load to the outer wheels: L/V = F sin(L / 2R) / (m g / 2N + 2 F sin(L / 2R) h_c /
+    (s N)) for N axles and contact spacing s."""
+    n, L, m = 5, 15.0, 9e4
+    r = radius if left else -radius
+    geo = _geo(n, half_b=0.5 * (L - 2 * overhang - 1.8), overhang=overhang, mass=m)
+    x = 3000.0 - L * np.arange(n)
+    s = curving_state(_circle(r), geo, x[None], np.zeros((1, n)),
+                      np.full((1, n - 1), -force), 1.0, 1.5, 9.81)
+    lat = force * math.sin(L / (2 * radius))
+    q = m * 9.81 / 8 + 2 * lat * 0.876 / (1.5 * 4)
+    np.testing.assert_allclose(s.l_over_v[0, 1:-1], lat / q, rtol=1e-9)
+    # the wheelsets push the outer rail: right on a left-hand curve
+    outward = -1.0 if left else 1.0
+    assert np.all(np.sign(s.wheelset_force[0, 1:-1]) == outward)
