@@ -306,10 +306,10 @@ def test_curve_limit_fed_back_as_steady_buff_reaches_the_limit():
     train of those wagons held in steady buff by that force (the lead locomotive's
     dynamic brake against a pusher's full notch, no resistance) on that curve has the
     middle wagons' L/V at Nadal's limit within 1 %."""
+    from conftest import build
+
     from ltdsim.curving import curve_limit
     from ltdsim.simulate import simulate
-
-    from conftest import build
 
     radius, cant, speed = 200.0, 0.05, 12.0
     wagon = {"name": "wagon", "mass": 1.3e5, "length": 15.0}
@@ -349,13 +349,12 @@ def test_curve_limit_fed_back_as_steady_buff_reaches_the_limit():
 def test_curve_limit_cli_prints_the_function_and_refuses_bad_input():
     """`ltdsim curve-limit` prints curve_limit's force for the vehicles at the coupler;
     a coupler or radius out of range is one line naming the option."""
+    from conftest import ROOT
     from typer.testing import CliRunner
 
     from ltdsim.cli import app
     from ltdsim.curving import curve_limit
     from ltdsim.scenario import Curving, load_scenario
-
-    from conftest import ROOT
 
     path = ROOT / "scenarios" / "heavy-haul.toml"
     runner = CliRunner()
@@ -443,12 +442,11 @@ def test_add_curving_on_records_and_angle_stops():
     import json
 
     import xarray as xr
+    from conftest import train_dict
 
     from ltdsim.curving import add_curving
     from ltdsim.scenario import Scenario
     from ltdsim.summary import curving_summary
-
-    from conftest import train_dict
 
     n, L, R, F = 6, 15.0, 250.0, 4e5
     d = train_dict([8e4] * n, powered=(0,))

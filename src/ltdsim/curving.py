@@ -73,7 +73,7 @@ class Alignment:
     h1: np.ndarray
 
     @classmethod
-    def from_knots(cls, s, k0, k1, h0, h1) -> "Alignment":
+    def from_knots(cls, s, k0, k1, h0, h1) -> Alignment:
         return cls(*(np.asarray(a, dtype=float) for a in (s, k0, k1, h0, h1)))
 
     # ---------------------------------------------------------------- pointwise values
@@ -250,7 +250,7 @@ class TrainGeometry:
     mass: np.ndarray        # static mass, kg
 
     @classmethod
-    def of(cls, vehicles) -> "TrainGeometry":
+    def of(cls, vehicles) -> TrainGeometry:
         gs = [v.resolved_geometry() for v in vehicles]
         return cls(half_b=np.array([0.5 * g.bogie_spacing for g in gs]),
                    overhang=np.array([g.pivot_overhang for g in gs]),
