@@ -25,6 +25,7 @@ from conftest import build
 #: keys that are not columns of these tables, and where they go instead
 ELSEWHERE = {
     Vehicle: {"name": "labels only", "count": "expanded at validation",
+              "geometry": "the curving indicators after the run (tests/test_curving.py)",
               "brake": "its own keys, below", "davis": "its own keys, below"},
     Traction: {},
     PID: {"acceleration_of": "the demand mass, checked below"},
@@ -279,7 +280,10 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
                  "brake_commands"},
         Locomotive: {"name", "vehicles", "max_force", "max_power", "adhesion_mass",
                      "time_constant", "jerk_limit", "notch_profile", "brake_control"},
-        Track: set(track),
+        # the plane alignment: tests/test_curving.py (the curve resistance reads
+        # transitions and profile through Track.resistance_curve, checked there)
+        Track: set(track) | {"transitions", "cant", "profile", "profile_file",
+                             "rail_spacing"},
         Solver: set(solver) | {"stability_check"},  # (a check at validation)
         Initial: {"speed", "velocities", "couplers"},
     }

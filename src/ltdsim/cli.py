@@ -325,6 +325,10 @@ def run(
         "--plot", "-p", help="write an overview figure (.png, .svg, .pdf, ...)")] = None,
     set_: Annotated[Optional[list[str]], typer.Option("--set", "-s", help=SET_HELP)] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar")] = False,
+    report: Annotated[Optional[Path], typer.Option(
+        "--report", help="write a one-page HTML report of the run (coupler peaks and, when the "
+                         "scenario has a curving table, the curving-safety section) into "
+                         "this folder")] = None,
 ) -> None:
     """Simulate one scenario (optionally one named case) and summarise coupler forces."""
     from ltdsim.io import save_result
@@ -335,12 +339,19 @@ def run(
         _check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
         if plot is not None:  # (matplotlib only when a figure is asked for)
             _check_output(plot, "--plot", image_suffixes(), inputs=(file,))
+        if report is not None:
+            _check_folder(report, "--report")
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
         brake_plot = brake_figure_path(plot) if plot is not None and _fluid(sc) else None
         if brake_plot is not None:
             _check_output(brake_plot, "--plot (the brake-pressure figure beside it)",
+                          image_suffixes(), inputs=(file,))
+        curving_plot = (curving_figure_path(plot) if plot is not None
+                        and sc.curving is not None else None)
+        if curving_plot is not None:
+            _check_output(curving_plot, "--plot (the curving figure beside it)",
                           image_suffixes(), inputs=(file,))
         label = _label(sc)  # plain text: _table keeps it so
         ds = _simulate(sc, quiet, file)
@@ -374,6 +385,7 @@ def run(
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
     _print_motion(ds)
     brake = _print_fluid_brake(ds)
+    curving = _print_curving(ds)
     warning = travel_warning(ds, sc)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}")
@@ -391,6 +403,16 @@ def run(
 
             save_brake_pressures(ds, brake_plot, summary=brake)
             _say(f"brake-pressure figure written to {brake_plot}")
+        if curving_plot is not None and curving is not None:
+            from ltdsim.plotting import save_curving
+
+            save_curving(ds, curving_plot, summary=curving)
+            _say(f"curving figure written to {curving_plot}")
+        if report is not None:
+            from ltdsim.report import write_run_report
+
+            page = write_run_report(ds, report, f"ltdsim run: {label}")
+            _say(f"report written to {page}")
     except OSError as exc:
         err_console.print(f"[bold red]error (writing failed):[/] "
                           f"{escape(str(exc.filename or output or plot))}: "
@@ -430,6 +452,36 @@ def _print_motion(ds) -> None:
 def _fluid(sc) -> bool:
     """Whether the scenario brakes with the fluid air brake (``brake.model = "fluid"``)."""
     return getattr(sc.brake, "model", "lumped") == "fluid"
+
+
+def curving_figure_path(plot: Path) -> Path:
+    """Where ``ltdsim run --plot FIG`` writes the curving figure of a run with
+    ``[curving]``: beside FIG, ``<stem>-curving<suffix>``."""
+    return plot.with_name(f"{plot.stem}-curving{plot.suffix}")
+
+
+def _print_curving(ds) -> dict | None:
+    """The worst wheel L/V, wheelset force and coupler angle of a run with [curving]."""
+    from ltdsim.summary import curving_summary
+
+    c = curving_summary(ds)
+    if c is None:
+        return None
+    _say(f"curving: worst wheel L/V {c['max_l_over_v']:.3f} ({100 * c['l_over_v_share_of_limit']:.0f} % "
+         f"of Nadal's {c['nadal_limit']:.3f}) at vehicle {c['l_over_v_vehicle']}, "
+         f"{c['l_over_v_time_s']:.1f} s, chainage {c['l_over_v_position_m']:.0f} m; "
+         f"largest wheelset lateral force {c['max_wheelset_force_N'] / 1e3:.1f} kN "
+         f"({100 * c['wheelset_force_share_of_limit']:.0f} % of Prud'homme's "
+         f"{c['prudhomme_limit_N'] / 1e3:.1f} kN) at vehicle {c['wheelset_force_vehicle']}, "
+         f"{c['wheelset_force_time_s']:.1f} s")
+    if "max_coupler_angle_rad" in c:
+        _say(f"curving: largest coupler angle {1e3 * c['max_coupler_angle_rad']:.1f} mrad at coupler "
+             f"{c['coupler_angle_coupler']}, {c['coupler_angle_time_s']:.1f} s; lateral coupler "
+             f"components up to {c['max_inward_coupler_force_N'] / 1e3:.1f} kN inward (draft), "
+             f"{c['max_outward_coupler_force_N'] / 1e3:.1f} kN outward (buff)"
+             + (f"; {c['couplers_at_stops']} couplers reach their angle stops"
+                if "couplers_at_stops" in c else ""))
+    return c
 
 
 def brake_figure_path(plot: Path) -> Path:
@@ -664,6 +716,75 @@ def gear_ratings(
         with atomic_path(toml) as tmp:
             tmp.write_text(table_toml(gear, slack=slack, comment=note))
         _say(f"gear written to {toml}")
+
+
+@app.command("curve-limit")
+def curve_limit_cmd(
+    file: Annotated[Path, typer.Argument(help="scenario file (TOML) holding the vehicles")],
+    coupler: Annotated[int, typer.Option(help="coupler number: coupler k joins vehicles k "
+                                              "and k + 1 (1 = behind the lead)")],
+    radius: Annotated[float, typer.Option(help="curve radius, m (20 to 1e6)")],
+    cant: Annotated[float, typer.Option(help="cant of the outer rail, m (0 to 0.2)")] = 0.0,
+    speed: Annotated[float, typer.Option(help="train speed, m/s (0 to 100)")] = 0.0,
+    case: Annotated[Optional[str], typer.Option("--case", "-c", help="named case to apply")] = None,
+) -> None:
+    """The largest steady buff force the two vehicles at a coupler can carry on a curve
+    before the worse wheel's L/V reaches Nadal's limit (and, beside it, before a leading
+    wheelset reaches Prud'homme's limit): "how hard can we push here". Limits and the
+    wheelset share come from the scenario's curving table (its defaults without one)."""
+    import math
+
+    from ltdsim.curving import curve_limit
+    from ltdsim.physics.curving import cant_deficiency
+    from ltdsim.scenario import Curving, load_scenario
+
+    try:
+        _check_number("--radius", radius, 20.0, 1e6, unit="m")
+        _check_number("--cant", cant, 0.0, 0.2, unit="m")
+        _check_number("--speed", speed, 0.0, 100.0, unit="m/s")
+        sc = load_scenario(file, case=case)
+        n = len(sc.vehicles)
+        if n < 2:
+            raise ScenarioError("--coupler", [("", f"{file} has one vehicle and no coupler")])
+        _check_number("--coupler", coupler, 1, n - 1, whole=True)
+        front, rear = sc.vehicles[coupler - 1], sc.vehicles[coupler]
+        for k, v in ((coupler, front), (coupler + 1, rear)):
+            problem = v.geometry_problem()
+            if problem:
+                raise ScenarioError(str(file), [(f"vehicles.{k - 1}", problem)])
+    except ScenarioError as exc:
+        _fail(exc)
+        return
+    cfg = sc.curving or Curving()
+    res = curve_limit(front, rear, radius, cant, speed, cfg.flange_angle, cfg.flange_friction,
+                      cfg.leading_share, sc.track.rail_spacing, sc.track.gravity,
+                      cfg.prudhomme_alpha)
+
+    def kn(f):
+        return "not reached below 50 MN" if math.isinf(f) else f"{f / 1e3:.0f}"
+
+    hd = float(cant_deficiency(speed, 1.0 / radius, cant, sc.track.rail_spacing,
+                               sc.track.gravity))
+    table = _table(f"Curve limit at coupler {coupler}: vehicle {coupler} "
+                   f"({front.name}) - vehicle {coupler + 1} ({rear.name})",
+                   ("quantity", "value"))
+    table.add_row("radius [m]", f"{radius:g}")
+    table.add_row("cant [mm]", f"{cant * 1e3:.0f}")
+    table.add_row("speed [m/s]", f"{speed:.1f} ({speed * 3.6:.1f} km/h)")
+    table.add_row("cant deficiency [mm] (- excess)", f"{hd * 1e3:.0f}")
+    table.add_row("Nadal L/V limit [-]", f"{res.limit:.3f} ({cfg.flange_angle:g} deg, "
+                                          f"mu {cfg.flange_friction:g})")
+    table.add_row("L/V with no coupler force [-]", f"{res.l_over_v_at_zero:.3f}")
+    table.add_row("max steady buff force, L/V [kN]", kn(res.buff_force))
+    table.add_row("governing vehicle", f"{coupler if res.governing == 'front' else coupler + 1}"
+                                       f" ({res.governing} of the pair)")
+    table.add_row("Prud'homme limit, front / rear [kN]",
+                  f"{res.prudhomme[0] / 1e3:.1f} / {res.prudhomme[1] / 1e3:.1f} "
+                  f"(alpha {cfg.prudhomme_alpha:g})")
+    table.add_row("max steady buff force, Prud'homme [kN]", kn(res.buff_force_prudhomme))
+    console.print(table)
+    _say("quasi-static, kinematic coupler angles from the vehicle geometry (docs/curving.md); "
+         "the same buff force in the couplers on either side of the pair")
 
 
 @app.command()

@@ -153,7 +153,7 @@ def lower(s: Scenario) -> Lowered:
         y0_extra += one.y0
     ny = 2 * n + nz
 
-    track_pos, track_grade, track_curv = merge_track(s.track.gradient, s.track.curve)
+    track_pos, track_grade, track_curv = merge_track(s.track.gradient, s.track.resistance_curve())
     g = s.track.gravity
     m_total = veh[:, V_MASS].sum()
 

@@ -319,3 +319,65 @@ def _save(fig, path) -> Path:
         fig.savefig(tmp, dpi=DPI, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
     return path
+
+
+def curving_figure(ds: xr.Dataset, summary: dict | None = None):
+    """L/V along the train over the run (a time x vehicle map, coloured up to Nadal's
+    limit), the envelope of L/V and of the wheelset force over Prud'homme's limit per
+    vehicle, and the coupler angles and lateral components of the most angled couplers."""
+    t = ds.time.values
+    lv = ds.wheel_l_over_v.values
+    nadal = float(ds.nadal_limit)
+    n = lv.shape[1]
+    fig, axes = plt.subplots(3, 1, figsize=(WIDTH, 10.5),
+                             gridspec_kw={"height_ratios": [1.3, 1.0, 1.0]})
+    ax = axes[0]
+    colours = plt.get_cmap("magma_r").with_extremes(over="tab:red")
+    dt = (t[-1] - t[0]) / max(t.size - 1, 1)
+    image = ax.imshow(np.where(np.isfinite(lv), lv, nadal * 2).T, aspect="auto",
+                      interpolation="nearest", cmap=colours, vmin=0.0, vmax=nadal,
+                      extent=(t[0] - dt / 2, t[-1] + dt / 2, n + 0.5, 0.5))
+    fig.colorbar(image, ax=ax, pad=0.01, extend="max",
+                 label=f"wheel L/V [-] (red: over Nadal's {nadal:.2f})")
+    ax.set_ylabel("vehicle\n(1 = lead)")
+    ax.set_xlabel("time [s]")
+    ax.grid(False)
+    ax.set_title("L/V of the flanging wheel of each vehicle's worse leading wheelset")
+    ax = axes[1]
+    veh = np.arange(1, n + 1)
+    ax.plot(veh, np.nanmax(np.where(np.isfinite(lv), lv, np.nan), axis=0), color="tab:blue",
+            lw=1.0, label="max L/V over the run [-]")
+    ax.axhline(nadal, color="tab:blue", ls="--", lw=0.9, label=f"Nadal's limit {nadal:.2f}")
+    ratio = ds.wheelset_lateral_force.values / ds.prudhomme_limit.values[None, :]
+    ax.plot(veh, ratio.max(axis=0), color="tab:orange", lw=1.0,
+            label="max wheelset force / Prud'homme limit [-]")
+    ax.axhline(1.0, color="tab:orange", ls=":", lw=0.9)
+    ax.set_xlabel("vehicle (1 = lead)")
+    ax.set_ylabel("ratio [-]")
+    ax.set_xlim(0.5, n + 0.5)
+    ax.legend(loc="upper left")
+    ax.set_title("worst over the run, along the train")
+    ax = axes[2]
+    if ds.sizes.get("coupler", 0):
+        ang = ds.coupler_angle.values
+        top = np.argsort(ang.max(axis=0))[::-1][:3]
+        lat = ds.coupler_lateral_force.values
+        for c, j in zip(HIGHLIGHT_COLOURS, sorted(top)):
+            ax.plot(t, lat[:, j] / 1e3, color=c, lw=0.9,
+                    label=f"coupler {j + 1} (max angle {1e3 * ang[:, j].max():.1f} mrad)")
+        ax.axhline(0.0, color="0.5", lw=0.6)
+        ax.legend(loc="best")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("lateral component [kN]\n(+ inward, - outward)")
+    ax.set_title("lateral coupler force of the three most angled couplers")
+    if summary:
+        fig.suptitle(f"worst L/V {summary['max_l_over_v']:.2f} at vehicle "
+                     f"{summary['l_over_v_vehicle']}, {summary['l_over_v_time_s']:.1f} s, "
+                     f"chainage {summary['l_over_v_position_m']:.0f} m")
+    fig.tight_layout()
+    return fig
+
+
+def save_curving(ds: xr.Dataset, path: str | Path, summary: dict | None = None) -> Path:
+    """Write :func:`curving_figure` to ``path``."""
+    return _save(curving_figure(ds, summary), path)

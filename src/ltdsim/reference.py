@@ -70,7 +70,7 @@ def make_rhs(scenario: Scenario):
     lengths = np.array([v.length for v in s.vehicles])
     p0 = np.concatenate([[0.0], -np.cumsum(0.5 * (lengths[:-1] + lengths[1:]))])
     grade_at, grade = _step_table(s.track.gradient)
-    curve_at, radius = _step_table(s.track.curve)
+    curve_at, radius = _step_table(s.track.resistance_curve())
     curvature = np.divide(1.0, radius, out=np.zeros_like(radius), where=radius != 0.0)
     g = s.track.gravity
     # couplers: each model's parameters (unused ones 0), the initial state of the slack

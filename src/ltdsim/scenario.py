@@ -204,6 +204,51 @@ class VehicleBrake(_Strict):
                              "(m^2)")
         return self
 
+#: Representative geometry of the two kinds of vehicle, used where a vehicle gives no
+#: ``geometry`` table (docs/curving.md gives the sources): a four-axle bogie freight wagon
+#: and a six-axle locomotive, each with AAR couplers. The bogie spacing follows from the
+#: length over couplers: ``length - 2 (pivot_overhang + coupler_length)``.
+GEOMETRY_DEFAULTS = {
+    "wagon": {"pivot_overhang": 1.0, "coupler_length": 0.9, "coupler_height": 0.876,
+              "cg_height": 2.0, "axles": 4},
+    "locomotive": {"pivot_overhang": 2.0, "coupler_length": 0.9, "coupler_height": 0.876,
+                   "cg_height": 1.8, "axles": 6},
+}
+
+
+class VehicleGeometry(_Strict):
+    """Plan and height geometry of a vehicle for the curving indicators (ltdsim.curving);
+    a key left out takes the wagon's or (powered vehicles) the locomotive's default."""
+
+    bogie_spacing: float | None = Field(None, gt=0.0, le=MAX_LENGTH,
+                                        description="distance between the bogie centres "
+                                                    "(none: length - 2 (pivot_overhang + "
+                                                    "coupler_length)), m")
+    pivot_overhang: float | None = Field(None, ge=0.0, le=20.0,
+                                         description="distance from a bogie centre to the "
+                                                     "coupler pivot beyond it, m")
+    coupler_length: float | None = Field(None, ge=0.0, le=5.0,
+                                         description="coupler of one vehicle end from its "
+                                                     "pivot to the coupling line, m")
+    coupler_height: float | None = Field(None, ge=0.2, le=2.0,
+                                         description="coupler centre line above the rail, m")
+    cg_height: float | None = Field(None, ge=0.2, le=5.0,
+                                    description="centre of gravity of the loaded vehicle "
+                                                "above the rail, m")
+    axles: int | None = Field(None, ge=2, le=16, description="number of axles, half of them "
+                                                             "in each of the two bogies, -")
+
+
+class ResolvedGeometry(typing.NamedTuple):
+    """A vehicle's geometry with the defaults filled in (SI: m, -)."""
+
+    bogie_spacing: float
+    pivot_overhang: float
+    coupler_length: float
+    coupler_height: float
+    cg_height: float
+    axles: int
+
 
 class Vehicle(_Strict):
     """One vehicle, or ``count`` identical ones, front to rear."""
@@ -227,11 +272,39 @@ class Vehicle(_Strict):
                                                          "retarding force = fill x "
                                                          "cylinder_force x rigging_ratio x "
                                                          "mu(v, K); none: unbraked")
+    geometry: VehicleGeometry = Field(VehicleGeometry(),
+                                      description="bogie and coupler geometry for the "
+                                                  "curving indicators ([curving]); "
+                                                  "defaults by kind (docs/curving.md)")
 
     @property
     def weight_mass(self) -> float:
         """Mass used for grade and curve resistance, kg."""
         return self.mass if self.static_mass is None else self.static_mass
+
+    def resolved_geometry(self) -> ResolvedGeometry:
+        """:attr:`geometry` with each missing key taken from the wagon's or (powered) the
+        locomotive's default, and the bogie spacing from the length over couplers."""
+        base = GEOMETRY_DEFAULTS["locomotive" if self.powered else "wagon"]
+        g = self.geometry
+        pick = {k: (getattr(g, k) if getattr(g, k) is not None else base[k]) for k in base}
+        b = g.bogie_spacing
+        if b is None:
+            b = self.length - 2.0 * (pick["pivot_overhang"] + pick["coupler_length"])
+        return ResolvedGeometry(bogie_spacing=float(b), **pick)
+
+    def geometry_problem(self) -> str | None:
+        """What is wrong with the resolved geometry for the curving indicators, or None."""
+        g = self.resolved_geometry()
+        if g.bogie_spacing <= 0.0:
+            return (f"geometry: length ({self.length:g} m) less 2 (pivot_overhang + "
+                    f"coupler_length) leaves no room between the bogies; give "
+                    f"geometry.bogie_spacing or shorter overhangs")
+        if g.bogie_spacing + 2.0 * g.pivot_overhang > self.length + 1e-9:
+            return (f"geometry: bogie_spacing + 2 pivot_overhang = "
+                    f"{g.bogie_spacing + 2.0 * g.pivot_overhang:g} m exceeds the "
+                    f"length over couplers ({self.length:g} m)")
+        return None
 
 
 def _gear_dir():
@@ -602,7 +675,31 @@ class Track(_Strict):
                                          "also covers everything before it")
     curve: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                           description="[start position m, radius m] pieces; starts strictly "
-                                      "increasing, radius 0 (straight) or 20 to 1e6")
+                                      "increasing, radius 0 (straight) or 20 to 1e6, + "
+                                      "turning left, - turning right (the side matters to "
+                                      "the curving indicators only)")
+    transitions: Points = Field([], description="[position m, length m] clothoids: the "
+                                                "curvature step of `curve` at that position "
+                                                "becomes a ramp, linear in distance, from "
+                                                "there over the length (each position a "
+                                                "break of `curve`; the ramp ends before the "
+                                                "next break)")
+    cant: Points = Field(default_factory=lambda: [(0.0, 0.0)],
+                         description="[position m, cant m] height of the outer rail over the "
+                                     "inner, linear between the points and constant beyond "
+                                     "them, 0 to 0.2 m; it leans towards the centre of the "
+                                     "curve at each place")
+    profile_file: str | None = Field(None, description="CSV of chainage m, curvature 1/m "
+                                                       "(+ left), cant m, one point a line, "
+                                                       "linear between points; replaces "
+                                                       "curve, transitions and cant (a path "
+                                                       "relative to the scenario file)")
+    profile: list[Triple] = Field([], description="[chainage m, curvature 1/m, cant m] "
+                                                  "points as profile_file gives them (filled "
+                                                  "from it at load time)")
+    rail_spacing: float = Field(1.5, ge=0.9, le=2.0,
+                                description="distance between the wheel-rail contact points "
+                                            "of a wheelset (1.5 for standard gauge), m")
     curve_h: float = Field(540.0, ge=0.0, le=5000.0,
                            description="curve resistance constant h: h / R newtons per "
                                        "kilonewton of weight, R the radius in m, N m/kN")
@@ -619,6 +716,88 @@ class Track(_Strict):
     def _curves(cls, v):
         return _check_table(v, "start positions, m", lambda r: r == 0.0 or 20.0 <= abs(r) <= 1e6,
                             "0 (straight) or radii of 20-1e6 m")
+
+    @field_validator("cant")
+    @classmethod
+    def _cants(cls, v):
+        return _check_table(v, "positions, m", lambda h: 0.0 <= h <= 0.2, "in [0, 0.2] m")
+
+    @field_validator("profile")
+    @classmethod
+    def _profile(cls, v):
+        xs = [p[0] for p in v]
+        if any(b <= a for a, b in zip(xs, xs[1:])):
+            raise ValueError("chainages must be strictly increasing")
+        bad = [p[1] for p in v if abs(p[1]) > 0.05]
+        if bad:
+            raise ValueError(f"curvatures must be within +-0.05 1/m (radius >= 20 m), got "
+                             f"{bad[:3]}")
+        bad = [p[2] for p in v if not 0.0 <= p[2] <= 0.2]
+        if bad:
+            raise ValueError(f"cant must be in [0, 0.2] m, got {bad[:3]}")
+        return v
+
+    @model_validator(mode="after")
+    def _alignment(self):
+        breaks = [p[0] for p in self.curve]
+        ends = []
+        for k, (pos, length) in enumerate(self.transitions):
+            if pos not in breaks:
+                raise ValueError(f"transitions.{k}: position {pos:g} m is not a break of "
+                                 f"curve (its starts: {breaks})")
+            if not 0.0 < length <= 2000.0:
+                raise ValueError(f"transitions.{k}: length must be in (0, 2000] m, got "
+                                 f"{length:g}")
+            nxt = [b for b in breaks if b > pos]
+            if nxt and pos + length > nxt[0]:
+                raise ValueError(f"transitions.{k}: the ramp from {pos:g} m over {length:g} m "
+                                 f"runs past the next break of curve at {nxt[0]:g} m")
+            ends.append(pos)
+        if len(set(ends)) != len(ends):
+            raise ValueError("transitions: two transitions at one break")
+        if self.profile_file is not None and not self.profile:
+            raise ValueError(f"profile_file ({self.profile_file!r}) is read when the scenario "
+                             "file is loaded (ltdsim.load_scenario); give it in the file, or "
+                             "the points as track.profile")
+        if self.profile and (self.transitions or self.cant != [(0.0, 0.0)]
+                             or self.curve != [(0.0, 0.0)]):
+            raise ValueError("profile (profile_file) replaces curve, transitions and cant: "
+                             "leave those out")
+        return self
+
+    def resistance_curve(self) -> Points:
+        """The ``curve`` table the kernel's curve resistance reads: ``curve`` itself when
+        the alignment has no transitions or profile, otherwise the alignment's curvature
+        averaged over steps of at most 5 m (the ramps keep their integral of curvature,
+        so the curve resistance summed over them is that of the alignment), m and m."""
+        if not self.transitions and not self.profile:
+            return self.curve
+        from ltdsim.curving import alignment_of
+
+        return alignment_of(self).step_table(5.0)
+
+
+class Curving(_Strict):
+    """Curving-safety indicators computed after the run (ltdsim.curving): coupler angles,
+    lateral coupler forces, wheel L/V and wheelset lateral forces."""
+
+    flange_angle: float = Field(75.0, gt=45.0, lt=89.0,
+                                description="maximum flange contact angle for Nadal's "
+                                            "limit, deg")
+    flange_friction: float = Field(0.5, ge=0.0, le=1.0,
+                                   description="wheel-rail friction at the flange for Nadal's "
+                                               "limit, -")
+    prudhomme_alpha: float = Field(0.85, gt=0.0, le=1.0,
+                                   description="factor of Prud'homme's wheelset lateral-force "
+                                               "limit alpha (10 kN + P/3), - (0.85: freight "
+                                               "wagons, EN 14363)")
+    leading_share: float = Field(1.0, ge=0.5, le=1.0,
+                                 description="share of a bogie's lateral force taken by its "
+                                             "leading wheelset, - (1: all of it, the bound)")
+    coupler_angle_limit: float | None = Field(None, gt=0.0, le=0.5,
+                                              description="angle at which the coupler "
+                                                          "reaches its stops (reported, not "
+                                                          "enforced); none: no stops, rad")
 
 
 class Traction(_Strict):
@@ -1096,6 +1275,9 @@ class Scenario(_Strict):
                            description="the driver's commands: speed, force or notch "
                                        "control, and air-brake commands")
     initial: Initial = Field(Initial(), description="initial state of the train")
+    curving: Curving | None = Field(None, description="curving-safety indicators of the run "
+                                                      "(coupler angles, L/V); none: not "
+                                                      "computed")
     # analysis windows; none given: the whole run is one phase (ltdsim.phases.phases_of)
     phases: list[Phase] = Field(
         [], description="named time windows for the per-phase analyses; none: the whole "
@@ -1128,6 +1310,11 @@ class Scenario(_Strict):
         if vel is not None and len(vel) != n:
             raise ValueError(f"initial.velocities has {len(vel)} values for {n} vehicles")
         self._check_locomotives(n)
+        if self.curving is not None:
+            for i, v in enumerate(self.vehicles):
+                problem = v.geometry_problem()
+                if problem:
+                    raise ValueError(f"vehicles.{i}.{problem} (needed by [curving])")
         names = [p.name for p in self.phases]
         if len(set(names)) != len(names):
             raise ValueError(f"phases: names must differ, got {names}")
@@ -1313,7 +1500,46 @@ def load_scenario(path: str | Path, case: str | None = None) -> Scenario:
         With the file name, the dotted key and the allowed range for each problem.
     """
     path = Path(path)
-    return scenario_from_data(read_toml(path), str(path), case)
+    data = read_toml(path)
+    track = data.get("track")
+    if isinstance(track, dict) and isinstance(track.get("profile_file"), str):
+        track["profile"] = read_profile(path.parent / track["profile_file"], str(path))
+    return scenario_from_data(data, str(path), case)
+
+
+def read_profile(path: str | Path, source: str) -> list[list[float]]:
+    """The rows [chainage m, curvature 1/m, cant m] of the alignment CSV ``path`` (a header
+    line of text is skipped), or a :class:`ScenarioError` in one line naming the file
+    and the line. ``source`` is the scenario file that names it."""
+    import csv
+
+    path = Path(path)
+    key = "track.profile_file"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        why = "file not found" if isinstance(exc, FileNotFoundError) else f"cannot read: {exc}"
+        raise ScenarioError(source, [(key, f"{path}: {why}")]) from None
+    rows = []
+    for k, row in enumerate(csv.reader(text.splitlines()), start=1):
+        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+            continue
+        try:
+            vals = [float(c) for c in row]
+        except ValueError:
+            if not rows and k == 1:
+                continue  # header
+            raise ScenarioError(source, [(key, f"{path} line {k}: not three numbers "
+                                               f"(chainage m, curvature 1/m, cant m): "
+                                               f"{','.join(row)!r}")]) from None
+        if len(vals) != 3:
+            raise ScenarioError(source, [(key, f"{path} line {k}: {len(vals)} columns, "
+                                               "expected 3 (chainage m, curvature 1/m, "
+                                               "cant m)")])
+        rows.append(vals)
+    if not rows:
+        raise ScenarioError(source, [(key, f"{path}: no data rows")])
+    return rows
 
 
 def scenario_from_data(data: dict, source: str, case: str | None = None) -> Scenario:

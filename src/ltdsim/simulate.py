@@ -434,4 +434,8 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         # the pneumatic states' own steps (kernel.run_adaptive)
         ds.attrs["air_steps"] = rec["air_steps"][0]
         ds.attrs["air_rejected_steps"] = rec["air_steps"][1]
+    if scenario.curving is not None:  # after the run, from the records (ltdsim.curving)
+        from ltdsim.curving import add_curving
+
+        ds = add_curving(ds, scenario)
     return ds

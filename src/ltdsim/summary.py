@@ -492,3 +492,50 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
         "cylinder_95_s": t95,
     })
     return out
+
+
+def curving_summary(ds: xr.Dataset) -> dict | None:
+    """The worst places of a run with curving indicators (``[curving]``), else None:
+    the largest wheel L/V (-) with its vehicle number (1 = lead), time (s) and chainage
+    (m, the vehicle centre), against Nadal's limit; the largest leading-wheelset lateral
+    force (N) against the vehicle's Prud'homme limit; the largest coupler angle (rad)
+    with its coupler number; the largest inward and outward lateral coupler components
+    (N)."""
+    if "wheel_l_over_v" not in ds:
+        return None
+    lv = ds.wheel_l_over_v.values
+    t = ds.time.values
+    finite = np.where(np.isfinite(lv), lv, np.inf)
+    k, i = np.unravel_index(int(np.argmax(finite)), lv.shape)
+    h = ds.wheelset_lateral_force.values
+    ratio = h / ds.prudhomme_limit.values[None, :]
+    kh, ih = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    out = {
+        "max_l_over_v": float(lv[k, i]),
+        "l_over_v_vehicle": int(i) + 1,
+        "l_over_v_time_s": float(t[k]),
+        "l_over_v_position_m": float(ds.position.values[k, i]),
+        "nadal_limit": float(ds.nadal_limit),
+        "l_over_v_share_of_limit": float(lv[k, i] / float(ds.nadal_limit)),
+        "max_wheelset_force_N": float(h[kh, ih]),
+        "wheelset_force_vehicle": int(ih) + 1,
+        "wheelset_force_time_s": float(t[kh]),
+        "prudhomme_limit_N": float(ds.prudhomme_limit.values[ih]),
+        "wheelset_force_share_of_limit": float(ratio[kh, ih]),
+    }
+    if ds.sizes.get("coupler", 0):
+        a = ds.coupler_angle.values
+        ka, ja = np.unravel_index(int(np.argmax(a)), a.shape)
+        lat = ds.coupler_lateral_force.values
+        out.update({
+            "max_coupler_angle_rad": float(a[ka, ja]),
+            "coupler_angle_coupler": int(ja) + 1,
+            "coupler_angle_time_s": float(t[ka]),
+            "max_inward_coupler_force_N": float(max(lat.max(), 0.0)),
+            "max_outward_coupler_force_N": float(max(-lat.min(), 0.0)),
+        })
+        lim = json.loads(ds.attrs.get("scenario_json", "{}")).get("curving") or {}
+        stop = lim.get("coupler_angle_limit")
+        if stop:
+            out["couplers_at_stops"] = int((a >= stop).any(axis=0).sum())
+    return out
