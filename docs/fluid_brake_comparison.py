@@ -76,7 +76,9 @@ def facts(ds) -> dict:
     b = fluid_brake_summary(ds)
     if b is not None:
         out["rear_95_s"] = b["last_cylinder_95_s"]
-        out["propagation"] = b["propagation_speed_m_s"]
+        out["propagation"] = b["end_to_end_speed_m_s"]
+        out["vent_front"] = b["vent_front_speed_m_s"]
+        out["vent_s"] = b["vent_time_s"]
         out["rear_arrival_s"] = b["arrival_s"][-1]
         out["rear_bar"] = b["last_cylinder_final_Pa"] / 1e5
     else:
@@ -118,8 +120,10 @@ def main(argv=None) -> None:
               f"{f['compression_t']:.1f}) | {f['stop_m']:.0f} ({f['stop_s']:.1f}) | "
               f"{f['rear_95_s']:.1f} |")
         if "propagation" in f:
-            print(f"|   (fluid: propagation {f['propagation']:.0f} m/s, drop at the rear "
-                  f"{f['rear_arrival_s']:.2f} s, rear cylinder {f['rear_bar']:.2f} bar) |||||")
+            print(f"|   (fluid: propagation {f['propagation']:.0f} m/s end to end, 0.3 bar drop "
+                  f"at the rear {f['rear_arrival_s']:.2f} s; vent front {f['vent_front']:.0f} m/s, "
+                  f"rear below 1 bar {f['vent_s']:.2f} s; rear cylinder {f['rear_bar']:.2f} bar) "
+                  "|||||")
 
     fig, axes = plt.subplots(2, 2, figsize=(WIDTH, 8.5), constrained_layout=True)
     pairs = (("remote venting", "lumped, remote venting", "fluid (AAR), remote venting"),

@@ -21,6 +21,8 @@ import ltdsim
 from ltdsim import kernel
 from ltdsim.errors import ScenarioError
 from ltdsim.lowering import lower
+from ltdsim.physics import brakevalves as bv
+from ltdsim.summary import PIPE_DROP
 
 from conftest import build
 
@@ -55,8 +57,9 @@ def fluid_train(n_wagons, commands, *, valve="uic-g", t_end=5.0, out=0.01, metho
     }
 
 
-def arrivals(ds, drop):
-    """Time (s) at which each vehicle's pipe pressure first lies ``drop`` Pa below its
+def arrivals(ds, drop=PIPE_DROP):
+    """Time (s) at which each vehicle's pipe pressure first lies ``drop`` Pa (default
+    ltdsim's one definition of the signal's arrival, 0.3 bar) below its
     start, interpolated between samples; and each vehicle's distance from the lead's
     front (m) along the pipe."""
     t = ds.time.values
@@ -74,12 +77,14 @@ def arrivals(ds, drop):
     return out, front - x
 
 
-def rear_speed(ds, t_cmd, drop=0.3e5):
+def rear_speed(ds, t_cmd, drop=PIPE_DROP):
     """Brake-signal propagation speed, m/s, as the railways state it: the last vehicle's
     distance from the driver's valve over the time from the handle's movement (``t_cmd``,
     s) to the pipe's ``drop`` (Pa) at that vehicle."""
     arr, dist = arrivals(ds, drop)
-    assert arr[-1] > arr[1:-1].max()  # the rear is the last to see it
+    # the rear is the last to see it (within an output interval: at a closed rear end the
+    # reflected drop reaches the last two wagons together)
+    assert arr[-1] >= arr.max() - float(ds.time[1] - ds.time[0])
     return dist[-1] / (arr[-1] - t_cmd)
 
 
@@ -106,24 +111,69 @@ def test_emergency_propagates_at_the_uic_540_speed_and_service_slower(long_runs)
 
 def test_uic_passenger_emergency_propagates_at_the_uic_540_speed(long_runs):
     ds = long_runs["uic-p", "emergency"]
-    arr, dist = arrivals(ds, 0.3e5)
+    arr, dist = arrivals(ds)
     em = dist[-1] / (arr[-1] - 0.2)
     print(f"uic-p emergency {em:.0f} m/s")
     assert UIC_540_EMERGENCY <= em <= C_ISOTHERMAL
 
 
-@pytest.mark.parametrize("valve", ["aar", "uic-g"])
-def test_full_service_on_a_long_train_trips_no_emergency(valve):
-    """Service stability: a full service from the driver's valve on 100 wagons trips no
-    wagon's emergency portion. A tripped valve vents the pipe at its wagon to the
-    atmosphere; untripped, the pipe nowhere falls much below the full-service
-    equalisation (regulated - full_reduction, from the preset file), and (AAR) no cylinder
-    rises above the full-service pressure the preset's volumes give."""
+def emergency_pistons(d):
+    """Run scenario dict ``d`` through the engine's kernel one output interval at a time
+    and read every control valve's emergency piston (0 closed .. 1 tripped, the state
+    that opens its vent) from the state vector: (times s, positions time x wagon)."""
+    low = lower(build(d))
+    n_rec = low.n_steps // low.record_every + 1
+    _, y, ctl, stepper, grid, common = sim._buffers(low, n_rec)
+    z, nv = low.air_index[2], low.n - 1  # every vehicle but the loco has a valve
+    times, pistons = [], []
+    for r in range(n_rec - 1):
+        status, _ = kernel.run_adaptive(y, ctl, stepper, r, r + 1, grid, *common)
+        assert status == kernel.OK
+        s = y[z:z + nv * bv.N_CV].reshape(nv, bv.N_CV)
+        times.append((r + 1) * d["solver"]["output_interval"])
+        pistons.append(s[:, bv.S_EM].copy())
+    return np.array(times), np.array(pistons)
+
+
+@pytest.mark.parametrize("valve", ["aar", "uic-g", "uic-p"])
+def test_emergency_vent_front_runs_at_the_published_speed(valve):
+    """The vent front itself, not only the first pipe drop: the moment each wagon's
+    emergency piston passes half travel (its vent half open) along 100 wagons, fitted
+    by least squares to a speed (wagons 10-100, past the head end's start-up), and end to
+    end from the command. Both lie between UIC 540's 250 m/s and the pipe's sqrt(R T):
+    the vents keep up with the drop instead of following it at ~200 m/s."""
+    t, e = emergency_pistons(fluid_train(100, [{"time": 0.2, "handle": "emergency"}],
+                                         valve=valve, t_end=7.0, out=0.01))
+    tripped = e > 0.5
+    assert tripped[-1].all(), f"{(~tripped[-1]).sum()} wagons did not trip"
+    t_trip = t[np.argmax(tripped, axis=0)]
+    dist = 19.0 + 14.4 * (np.arange(100) + 0.5)  # lead's front to each wagon's middle, m
+    slope = 1.0 / np.polyfit(dist[9:], t_trip[9:], 1)[0]
+    end_to_end = dist[-1] / (t_trip[-1] - 0.2)
+    print(f"{valve}: vent front {slope:.0f} m/s along the train, {end_to_end:.0f} m/s end "
+          f"to end (rear vents {t_trip[-1] - 0.2:.2f} s after the command)")
+    assert UIC_540_EMERGENCY <= end_to_end <= slope <= C_ISOTHERMAL
+
+
+@pytest.mark.parametrize("valve,handle", [("aar", "full"), ("aar", "minimum"),
+                                          ("uic-g", "full")])
+def test_service_on_a_long_train_trips_no_emergency(valve, handle):
+    """Service stability: a full (or minimum) service from the driver's valve on 100
+    wagons trips no wagon's emergency piston anywhere, read from the state itself; and,
+    as a consequence one can see in the results, the pipe nowhere falls much below the
+    full-service equalisation (regulated - full_reduction, from the preset file) and (AAR)
+    no cylinder rises above the full-service pressure the preset's volumes give."""
     preset = tomllib.loads(resources.files("ltdsim.data").joinpath(
         "brakes", f"{valve}.toml").read_text())
     dv, cv = preset["driver_valve"], preset["control_valve"]
-    ds = ltdsim.simulate(build(fluid_train(
-        100, [{"time": 0.2, "handle": "full"}], valve=valve, t_end=30.0, out=0.1)))
+    d = fluid_train(100, [{"time": 0.2, "handle": handle}], valve=valve, t_end=30.0,
+                    out=0.1)
+    _, e = emergency_pistons(d)
+    print(f"{valve} {handle}: largest emergency piston travel {e.max():.2g}")
+    assert e.max() < 0.01
+    if handle != "full":
+        return
+    ds = ltdsim.simulate(build(d))
     p_full = dv["regulated"] - dv["full_reduction"]
     # a tripped valve's vent takes the pipe to near 0 bar; service holds it at p_full
     assert ds.brake_pipe_pressure.values.min() > 0.8 * p_full
@@ -322,8 +372,8 @@ def test_remote_brake_control_point_vents_with_the_lead():
     both = ltdsim.simulate(build(d))
     d["locomotives"][1]["brake_control"] = False
     lead = ltdsim.simulate(build(d))
-    arr_both, dist = arrivals(both, 0.3e5)
-    arr_lead, _ = arrivals(lead, 0.3e5)
+    arr_both, dist = arrivals(both)
+    arr_lead, _ = arrivals(lead)
     # the remote's own pipe drops as early as the lead's
     assert abs(arr_both[51] - arr_both[0]) < 0.05
     # between the two, the pipe drops from both sides: the wagons there (at most 25

@@ -494,7 +494,7 @@ def _print_fluid_brake(ds) -> dict | None:
     """For a fluid-brake run, the first application's propagation along the train and the
     rear cylinder's 95 % time (ltdsim.summary.fluid_brake_summary); returns the summary
     (None for another run)."""
-    from ltdsim.summary import fluid_brake_summary
+    from ltdsim.summary import VENTED, fluid_brake_summary
 
     b = fluid_brake_summary(ds)
     if b is None:
@@ -504,16 +504,20 @@ def _print_fluid_brake(ds) -> dict | None:
     line = (f"fluid brake: application at {b['command_time_s']:.2f} s from vehicle{plural} "
             f"{src} (pipe there down {b['control_pipe_drop_Pa'] / 1e5:.2f} bar by "
             f"{b['end_time_s']:.1f} s); ")
-    if b["propagation_speed_m_s"] == b["propagation_speed_m_s"]:
-        line += (f"propagation {b['propagation_speed_m_s']:.0f} m/s (slope of the pipe's "
-                 f"{b['threshold_Pa'] / 1e5:.1f} bar drop at {b['vehicles_reached']} vehicles "
-                 f"against distance), ")
+    drop = f"{b['threshold_Pa'] / 1e5:.1f} bar"
     if b["propagation_time_s"] == b["propagation_time_s"]:
-        line += (f"{b['propagation_time_s']:.2f} s to vehicle {b['farthest_vehicle'] + 1} at "
-                 f"{b['farthest_distance_m']:.0f} m ({b['end_to_end_speed_m_s']:.0f} m/s end to "
-                 "end); ")
+        line += (f"propagation {b['end_to_end_speed_m_s']:.0f} m/s end to end (the pipe's "
+                 f"{drop} drop {b['propagation_time_s']:.2f} s after the command at vehicle "
+                 f"{b['farthest_vehicle'] + 1}, {b['farthest_distance_m']:.0f} m away)")
+        if b["propagation_speed_m_s"] == b["propagation_speed_m_s"]:
+            line += (f", {b['propagation_speed_m_s']:.0f} m/s along the train (slope over "
+                     f"{b['vehicles_reached']} vehicles)")
+        line += "; "
     else:
-        line += f"the drop did not reach vehicle {b['farthest_vehicle'] + 1}; "
+        line += f"the {drop} drop did not reach vehicle {b['farthest_vehicle'] + 1}; "
+    if b["vent_time_s"] == b["vent_time_s"]:
+        line += (f"vent front {b['vent_front_speed_m_s']:.0f} m/s end to end (pipe below "
+                 f"{VENTED / 1e5:.0f} bar at vehicle {b['farthest_vehicle'] + 1} after {b['vent_time_s']:.2f} s); ")
     if b["last_cylinder_95_s"] == b["last_cylinder_95_s"]:
         line += (f"rear cylinder (vehicle {b['last_vehicle'] + 1}) at 95 % of "
                  f"{b['last_cylinder_final_Pa'] / 1e5:.2f} bar {b['last_cylinder_95_s']:.1f} s "

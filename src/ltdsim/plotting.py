@@ -193,7 +193,7 @@ def brake_pressure_figure(ds: xr.Dataset, window: tuple[float, float] | None = N
 
     With ``summary`` (:func:`ltdsim.summary.fluid_brake_summary`) the figure shows its
     application (:func:`application_window`, unless ``window`` (s, s) is given), the
-    pipe's arrival line (0.2 bar fallen) on the pipe map, and its propagation speed and
+    pipe's arrival line (0.3 bar fallen) on the pipe map, and its propagation speed and
     the rear cylinder's 95 % time in the title; the moments of the profiles are spread
     over the drop's travel to the farthest vehicle (pipe) and up to the slowest cylinder's
     95 % time (cylinders). Without it, the whole record (or ``window``) and moments
@@ -254,8 +254,10 @@ def brake_pressure_figure(ds: xr.Dataset, window: tuple[float, float] | None = N
     title = ds.attrs.get("title", "ltdsim result") + ": fluid air brake"
     if summary is not None:
         bits = []
-        if np.isfinite(summary["propagation_speed_m_s"]):
-            bits.append(f"propagation {summary['propagation_speed_m_s']:.0f} m/s")
+        if np.isfinite(summary["end_to_end_speed_m_s"]):
+            bits.append(f"propagation {summary['end_to_end_speed_m_s']:.0f} m/s end to end")
+        if np.isfinite(summary.get("vent_front_speed_m_s", np.nan)):
+            bits.append(f"vent front {summary['vent_front_speed_m_s']:.0f} m/s")
         if np.isfinite(summary["last_cylinder_95_s"]):
             bits.append(f"rear cylinder (vehicle {summary['last_vehicle'] + 1}) at 95 % "
                         f"{summary['last_cylinder_95_s']:.1f} s after the command at "

@@ -205,12 +205,20 @@ def travel_warning(ds: xr.Dataset, scenario=None,
 
 # ------------------------------------------------------------------ fluid air brake
 #: Pa: a vehicle's brake pipe counts as reached by a brake application once it has
-#: fallen this far (0.2 bar, about 3 psi) below its pressure before the command. Below
-#: the smallest service reduction a driver's valve makes (a few tenths of a bar in both
-#: the UIC and the North American practice), so every application reaches it at the
-#: lead; above the drop at which the control valves begin to apply (0.1 bar, the
-#: presets' ``threshold``), so a vehicle it has reached is applying.
-PIPE_DROP = 2.0e4
+#: fallen this far (0.3 bar, about 4.4 psi) below its pressure before the command. The
+#: one definition of the brake signal's arrival in ltdsim: the run summary and the tests
+#: use it (docs/airbrake.md, "Propagation speed"). Below the smallest service reduction
+#: a driver's valve makes (0.4-0.5 bar, both practices), so every application reaches it
+#: at the lead; three times the drop at which the control valves begin to apply (0.1 bar,
+#: the presets' ``threshold``), so a vehicle it has reached is applying, and deeper than
+#: the small precursor the pipe alone carries ahead of the valves at sqrt(R T).
+PIPE_DROP = 3.0e4
+
+#: Pa gauge: a vehicle's brake pipe counts as vented (its own or a neighbour's emergency
+#: vent open) once it has fallen below this pressure: a service application holds the
+#: pipe at the full-service equalisation (3.5 bar UIC, 4.4 bar AAR), only a vent takes
+#: it near the atmosphere. Its arrival times give the vent front's speed.
+VENTED = 1.0e5
 
 #: share of its final pressure at which a brake cylinder counts as applied (the UIC 540
 #: application time runs to 95 % of the final cylinder pressure)
@@ -403,9 +411,14 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
     of the fit's residuals (s) says how straight the arrivals lie: a service wave that
     slows down along the train shows as a large residual.
 
-    **End to end**: the time from the command until the arrival at the farthest vehicle
-    (from its brake-control point), s, and that distance over that time, m/s; this one
-    includes the delay at the source.
+    **End to end** (ltdsim's propagation speed, the one the tests bound and ``ltdsim
+    run`` prints first): the time from the command until the arrival at the farthest
+    vehicle (from its brake-control point), s, and that distance over that time, m/s;
+    it includes the delay at the source, as the railways' figure does.
+
+    **Vent front**: the same, end to end, for the pipe falling below :data:`VENTED`
+    (gauge): how fast the emergency vents open along the train; NaN when the pipe at the
+    farthest vehicle never fell that far (a service application).
 
     **Cylinder times**: for each braked vehicle whose cylinder ends the application above
     :data:`CYLINDER_APPLIED`, the time from the command until its pressure first reaches
@@ -424,7 +437,8 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
         end of the window: about 5 bar in an emergency), ``vehicles_reached``,
         ``propagation_speed_m_s``, ``propagation_fit_rms_s``, ``farthest_vehicle``
         (index), ``farthest_distance_m``, ``propagation_time_s``,
-        ``end_to_end_speed_m_s``, ``last_vehicle`` (index of the rear braked vehicle),
+        ``end_to_end_speed_m_s``, ``vent_time_s``, ``vent_front_speed_m_s``,
+        ``vent_arrival_s`` (array), ``last_vehicle`` (index of the rear braked vehicle),
         ``last_cylinder_final_Pa`` (gauge), ``last_cylinder_95_s``,
         ``last_cylinder_settled``, ``slowest_vehicle``, ``slowest_cylinder_95_s``,
         ``slowest_cylinder_settled``, ``arrival_s`` and ``cylinder_95_s`` (arrays over
@@ -463,6 +477,14 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
                 "propagation_time_s": float(arrival[far] - t_cmd)})
     out["end_to_end_speed_m_s"] = (float(dist[far] / out["propagation_time_s"])
                                    if out["propagation_time_s"] > 0.0 else float("nan"))
+    # the vent front: each vehicle's pipe falling below VENTED (gauge), end to end
+    vent_at = np.array([_crossing(tw, pw[:, i], VENTED, start + 1, True)
+                        if start + 1 < end else np.nan for i in range(n)])
+    out["vent_arrival_s"] = vent_at - t_cmd
+    t_vent = float(vent_at[far] - t_cmd)
+    out["vent_time_s"] = t_vent
+    out["vent_front_speed_m_s"] = (float(dist[far] / t_vent) if t_vent > 0.0
+                                   else float("nan"))
 
     t95 = np.full(n, np.nan)
     settled = np.zeros(n, dtype=bool)

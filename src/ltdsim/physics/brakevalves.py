@@ -21,7 +21,15 @@ so that every Runge-Kutta stage sees a right-hand side fixed by the states alone
   towards 1 when the quick-action chamber is more than ``trip`` (Pa) above the pipe,
   towards 0 otherwise. The chamber is charged from the pipe through a choke: a slow
   (service) reduction lets it follow; a fast (emergency) one does not, and the pressure
-  difference trips the piston. Once open, the vent holds the pipe at the atmosphere, so
+  difference trips the piston. The difference is a measure of the pipe's rate of fall
+  (the sensing of the ABD/ABDX-class emergency portion, whose quick-action chamber is
+  charged and discharged through a choke): for a steady fall at ``r`` Pa/s it settles
+  where the choke passes the chamber's share, ``orifice_flow(p + lag, p) = V_qa r /
+  (R T)`` (:func:`quick_action_lag`), rising about as ``r^2``; a drop shorter than the
+  chamber's time constant leaves a lag near its own depth. So the piston trips on a
+  fall that is both fast and deep: an emergency (tens of bar/s behind the vents) within
+  some 0.05 s, while a service front, steep at the closed rear of a long train but
+  only a few tenths of a bar deep, does not. Once open, the vent holds the pipe at the atmosphere, so
   the difference stays and the valve stays tripped (the latch) until the chamber has
   blown down through its vent choke; then the piston closes and the pipe can be
   recharged. The latch is the chamber's pressure, not a flag.
@@ -588,6 +596,33 @@ def handle_command(name: str, par: np.ndarray) -> tuple[int, float]:
     if name not in table:
         raise ValueError(f"handle {name!r}; allowed: {', '.join(table)}")
     return table[name]
+
+
+def quick_action_lag(par: np.ndarray, rate: float, p_abs: float, gamma: float = 1.4,
+                     r_gas: float = 287.05, temperature: float = 293.15,
+                     r_lin: float = 0.995) -> float:
+    """Steady lag (Pa) of the quick-action chamber behind a pipe falling steadily at
+    ``rate`` (Pa/s) through the pressure ``p_abs`` (Pa abs): the difference at which the
+    chamber's choke passes the air that keeps the chamber falling with the pipe,
+    ``orifice_flow(p_abs + lag, p_abs) = V_qa rate / (R T)``; ``inf`` if the choke
+    cannot pass that flow from any chamber pressure below twice ``p_abs`` (the pipe is
+    falling faster than the chamber can follow: it trips after the pipe has fallen about
+    ``trip``). The emergency piston trips where the lag exceeds ``trip``; the rate at
+    which the steady lag equals ``trip`` is the preset's emergency rate."""
+    from scipy.optimize import brentq
+
+    v, cda = par[P_VQA], par[P_QA]
+    if v <= 0.0 or cda <= 0.0 or rate <= 0.0:
+        return 0.0 if rate <= 0.0 else math.inf
+    need = v * rate / (r_gas * temperature)
+
+    def excess(lag):
+        return orifice_flow(p_abs + lag, p_abs, cda, gamma, r_gas, temperature,
+                            r_lin) - need
+
+    if excess(p_abs) < 0.0:
+        return math.inf
+    return float(brentq(excess, 0.0, p_abs, xtol=1e-3))
 
 
 # --- the fastest rates, for the step limit ------------------------------------------------
