@@ -1011,6 +1011,48 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
     sig["demand"] = fdem
 
 
+@njit(cache=True, _nrt=False)
+def _drive_axle(y, dy, z, vc, dem, motor, ctrl, ws, rail, slip, misc, out, sg):
+    """One induction drive (a consist's motors, alike) at vehicle speed ``vc`` (m/s)
+    under the consist's demand ``dem`` (N): the rates of its states at ``y[z:]`` into
+    ``dy``, its signals into ``sg``; returns the consist's creep force, N (law in
+    :func:`_induction`). A compiled function of its own, called, not inlined: inlined
+    into every copy of the right-hand side it made the kernels' first compile slower
+    (docs/induction-drive-train.md)."""
+    zw = z + N_DRIVE
+    r = ws[W_R]
+    gr = ws[W_I]
+    eta = misc[DM_GEAR_EFF]
+    nm = misc[DM_MOTORS]
+    fade = misc[DM_FADE]
+    if dem < 0.0 and fade > 0.0:
+        dem *= min(max(vc / fade, 0.0), 1.0)
+    tw = dem * r / nm
+    om = y[zw]
+    if misc[DM_SLIP_ON] > 0.0:
+        if tw >= 0.0:
+            tw, rate = slip_control(y[zw + 1], tw, om, vc, r, slip)
+        else:  # braking: the same law on the mirrored slip (wheel-slide protection)
+            tw, rate = slip_control(y[zw + 1], -tw, -om, -vc, r, slip)
+            tw = -tw
+        dy[zw + 1] = rate
+    else:
+        dy[zw + 1] = 0.0
+    t_ref = tw / (gr * eta) if tw >= 0.0 else tw * eta / gr
+    wm = gr * om
+    te = drive_rates(y[z:zw], wm, t_ref, misc[DM_VDC], motor, ctrl, dy[z:zw], out)
+    tw_m = gr * eta * te if te * wm >= 0.0 else gr * te / eta
+    dom, f = wheelset_rate(om, vc, tw_m, ws, rail)
+    dy[zw] = dom
+    sg[DS_TORQUE] = te
+    sg[DS_SPEED] = wm
+    sg[DS_CURRENT] = misc[DM_TO_RMS] * np.sqrt(out[O_ID] * out[O_ID] + out[O_IQ] * out[O_IQ])
+    sg[DS_CREEP] = (om * r - vc) / max(abs(vc), ws[W_VREG])
+    sg[DS_FORCE] = misc[DM_PER_LOCO] * f
+    sg[DS_PDC] = misc[DM_PER_LOCO] * out[O_PDC]
+    return nm * f
+
+
 @njit(cache=True, _nrt=False, forceinline=True)
 def _induction(y, tr, w, dy):
     """Force of each locomotive consist with the induction drive (N, + forward), written
@@ -1021,14 +1063,17 @@ def _induction(y, tr, w, dy):
     the consist's motors (they share its speed and demand). The consist's demand
     ``w.ddem`` (N, from :func:`_traction`; a braking demand faded below the fade speed as
     on the curve) becomes a wheel-torque demand ``dem r / motors`` (N m); the slip
-    controller (:func:`ltdsim.physics.creep.slip_control`) may lower it; the motor's
-    torque demand is it over ``G eta`` (motoring) or times ``eta / G`` (braking). The
-    drive (:func:`ltdsim.physics.foc.drive_rates`) gives the motor torque ``T_m`` at the
-    shaft speed ``G omega``; the gear gives the wheelset ``G eta T_m`` (motoring) or
-    ``G T_m / eta`` (braking: the gear's loss is then on the wheel's side); the
-    wheelset (:func:`ltdsim.physics.creep.wheelset_rate`) turns under it against the
-    creep force, which pushes the consist ``motors`` times."""
+    controller (:func:`ltdsim.physics.creep.slip_control`; in braking the same law on
+    the mirrored slip) may lower its magnitude; the motor's torque demand is it over
+    ``G eta`` (motoring) or times ``eta / G`` (braking). The drive
+    (:func:`ltdsim.physics.foc.drive_rates`) gives the motor torque ``T_m`` at the shaft
+    speed ``G omega``; the gear gives the wheelset ``G eta T_m`` (motoring) or ``G T_m /
+    eta`` (braking: the gear's loss is then on the wheel's side); the wheelset
+    (:func:`ltdsim.physics.creep.wheelset_rate`) turns under it against the creep force,
+    which pushes the consist ``motors`` times."""
     d = tr.drive
+    if d.z.shape[0] == 0:
+        return
     cons = tr.cons
     n = tr.veh.shape[0]
     ftot = 0.0
@@ -1036,47 +1081,12 @@ def _induction(y, tr, w, dy):
         kd = d.of[c]
         if kd < 0:
             continue
-        misc = d.misc[kd]
-        ws = d.ws[kd]
-        z = d.z[kd]
-        zw = z + N_DRIVE
         vc = y[n + int(cons[c, K_VEH])]
-        r = ws[W_R]
-        gr = ws[W_I]
-        eta = misc[DM_GEAR_EFF]
-        nm = misc[DM_MOTORS]
-        dem = w.ddem[kd]
-        fade = misc[DM_FADE]
-        if dem < 0.0 and fade > 0.0:
-            dem *= min(max(vc / fade, 0.0), 1.0)
-        tw = dem * r / nm
-        om = y[zw]
-        if misc[DM_SLIP_ON] > 0.0:
-            tw, rate = slip_control(y[zw + 1], tw, om, vc, r, d.slip[kd])
-            dy[zw + 1] = rate
-        else:
-            dy[zw + 1] = 0.0
-        t_ref = tw / (gr * eta) if tw >= 0.0 else tw * eta / gr
-        wm = gr * om
-        out = w.dout[kd]
-        te = drive_rates(y[z:zw], wm, t_ref, misc[DM_VDC], d.motor[kd], d.ctrl[kd],
-                         dy[z:zw], out)
-        tw_m = gr * eta * te if te * wm >= 0.0 else gr * te / eta
-        dom, f = wheelset_rate(om, vc, tw_m, ws, d.rail[kd])
-        dy[zw] = dom
-        fc = nm * f
+        fc = _drive_axle(y, dy, d.z[kd], vc, w.ddem[kd], d.motor[kd], d.ctrl[kd], d.ws[kd],
+                         d.rail[kd], d.slip[kd], d.misc[kd], w.dout[kd], w.dsig[kd])
         w.fcons[c] = fc
         ftot += fc
-        sg = w.dsig[kd]
-        sg[DS_TORQUE] = te
-        sg[DS_SPEED] = wm
-        sg[DS_CURRENT] = misc[DM_TO_RMS] * np.sqrt(out[O_ID] * out[O_ID]
-                                                   + out[O_IQ] * out[O_IQ])
-        sg[DS_CREEP] = (om * r - vc) / max(abs(vc), ws[W_VREG])
-        sg[DS_FORCE] = misc[DM_PER_LOCO] * f
-        sg[DS_PDC] = misc[DM_PER_LOCO] * out[O_PDC]
-    if d.z.shape[0] > 0:
-        w.sig[0]["traction"] += ftot
+    w.sig[0]["traction"] += ftot
 
 
 @njit(cache=True, inline="always")
