@@ -26,7 +26,8 @@ can evaluate it any number of times per step.
 The right-hand side :func:`rhs` calls one function per subsystem, in this order:
 :func:`_resistance` (running, grade and curve resistance per vehicle), :func:`_brakes`
 (brake-cylinder fills and shoe forces), :func:`_traction` (the driver's demand and each
-locomotive consist's force and lag), :func:`_couplers` (each coupler's force through
+locomotive consist's force and lag), :func:`_induction` (the consists on the induction
+drive), :func:`_couplers` (each coupler's force through
 :func:`ltdsim.coupler_models.coupler_force`, the registry's dispatch) and
 :func:`_force_balance` (each vehicle's acceleration). They
 pass their results through the :class:`Work` arrays (``res``, ``bforce``, ``fcons``,

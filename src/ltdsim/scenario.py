@@ -36,7 +36,7 @@ from pydantic import (
     model_validator,
 )
 
-from ltdsim.creep_schema import Creep
+from ltdsim.creep_schema import Creep, wheelset_row
 from ltdsim.errors import ScenarioError, _printable
 
 # Physical sanity bounds used in validation (documented in docs/scenario.md).
@@ -1258,6 +1258,11 @@ class Scenario(_Strict):
                 if self.vehicles[i].weight_mass * 9.81 / (2 * axles) > 2.5e5:
                     raise ValueError(f"vehicles.{i}: a wheel load above 250 kN "
                                      f"(static mass over 2 x traction.creep.wheelset.axles)")
+                try:  # the contact ellipse must lie within Kalker's table
+                    wheelset_row(t.creep.wheelset, self.vehicles[i].weight_mass,
+                                 self.track.gravity)
+                except ValueError as exc:
+                    raise ValueError(f"traction.creep.wheelset: {exc}") from None
 
     def _check_locomotives(self, n: int) -> None:
         if not self.locomotives:
