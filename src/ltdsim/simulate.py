@@ -211,7 +211,9 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         ``relative_velocity`` (time x vehicle); ``coupler_deflection``,
         ``coupler_force`` (time x coupler); ``traction_force``, ``speed_reference``,
         ``speed_error``, ``adhesion_limit``, ``demanded_acceleration``,
-        ``traction_demand`` (time). Units are
+        ``traction_demand`` (time); with the induction drive ``motor_torque``,
+        ``motor_speed``, ``stator_current``, ``creep``, ``creep_force``, ``dc_power``
+        (time x locomotive, NaN for a consist on the traction curve). Units are
         in each variable's ``units`` attribute; the scenario (JSON) and run facts are in
         the dataset's attributes.
 
