@@ -65,7 +65,9 @@ again at every call site, and with the right-hand side then called from three pl
 :func:`run` and four in :func:`run_adaptive` their first compile took about 140 s and
 200 s of CPU (now about 17 s each, and the second shares most of the first). The
 compiled kernels hold no calls to these functions: the machine code does the same work
-as before. No argument of these functions may be a constant at a call site either: numba
+as before. The one exception is the induction drive's :func:`_drive_axle`, a plain
+compiled function that :func:`_induction` calls: inlined into every copy of the
+right-hand side it added about half to the kernels' first compile. No argument of these functions may be a constant at a call site either: numba
 compiles a function once per set of argument types, and a constant such as ``0`` or
 ``True`` is a type of its own (hence the stage slices ``K[s * ny:(s + 1) * ny]`` rather
 than an offset ``0``).
