@@ -27,7 +27,9 @@ ELSEWHERE = {
     Vehicle: {"name": "labels only", "count": "expanded at validation",
               "geometry": "the curving indicators after the run (tests/test_curving.py)",
               "brake": "its own keys, below", "davis": "its own keys, below"},
-    Traction: {},
+    Traction: {"drive": "test_induction_drive_keys_land_in_their_rows",
+               "motor": "test_induction_drive_keys_land_in_their_rows",
+               "creep": "test_induction_drive_keys_land_in_their_rows"},
     PID: {"acceleration_of": "the demand mass, checked below"},
     Brake: {"mode": "the signal delay, checked below",
             "model": "the fluid-brake test below", "fluid": "the fluid-brake test below",
@@ -279,7 +281,8 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
                  "force_profile", "speed_profile", "pid", "brake_controller",
                  "brake_commands"},
         Locomotive: {"name", "vehicles", "max_force", "max_power", "adhesion_mass",
-                     "time_constant", "jerk_limit", "notch_profile", "brake_control"},
+                     "time_constant", "jerk_limit", "notch_profile", "brake_control",
+                     "drive"},  # (drive: test_induction_drive_keys_land_in_their_rows)
         # the plane alignment: tests/test_curving.py (the curve resistance reads
         # transitions and profile through Track.resistance_curve, checked there)
         Track: set(track) | {"transitions", "cant", "profile", "profile_file",
@@ -353,3 +356,60 @@ def test_minimum_handle_is_the_lumped_brake_s_minimum_level():
     o, m = int(low.drv[col(L.DRIVER_SLOTS, "brake_schedule")]), int(
         low.drv[col(L.DRIVER_SLOTS, "brake_schedule_len")])
     assert m == 1 and low.ctab[o] == 2.0 and low.ctab[o + m] == 0.31
+
+
+def test_induction_drive_keys_land_in_their_rows():
+    """traction.drive = "induction": each [traction.motor] and [traction.creep] key in
+    its parameter row, the drive's states before the brakes' with the magnetised,
+    rolling initial state."""
+    import math
+
+    from ltdsim.creep_schema import Wheelset
+    from ltdsim.physics import creep as cr
+    from ltdsim.physics import foc
+    from ltdsim.physics.induction import M_LM, M_RS
+
+    d = scenario_dict()
+    d["traction"] = {**TRACTION, "drive": "induction",
+                     "motor": {"preset": "study-850kw", "per_locomotive": 4,
+                               "stator_resistance": 0.0211, "max_current": 333.0},
+                     "creep": {"rail": {"preset": "wet", "mu0": 0.27},
+                               "wheelset": {"axles": 5, "wheel_radius": 0.55,
+                                            "gear_ratio": 4.4, "gear_efficiency": 0.96,
+                                            "inertia": 210.0, "v_reg": 0.8},
+                               "slip_control": {"enabled": False, "w_set": 0.21,
+                                                "w_slope": 0.03, "bandwidth": 15.0,
+                                                "recovery_time": 3.0}}}
+    d["initial"] = {"speed": 2.5}
+    low = lower(build(d))
+    assert low.drive_of.tolist() == [0]
+    z = int(low.drive_z[0])
+    assert 0 <= z and z + 9 <= min(int(b) for b in low.veh[:, L.V_BZ] if b >= 0)
+    assert low.drive_motor[0, M_RS] == 0.0211
+    assert low.drive_ctrl[0, foc.C_IMAX] == pytest.approx(333.0 * math.sqrt(6), rel=1e-15)
+    assert low.drive_rail[0, cr.C_MU0] == 0.27 and low.drive_rail[0, cr.C_KA] == 0.30
+    ws = low.drive_ws[0]
+    assert ws[cr.W_Q] == pytest.approx(1.27e5 * 9.81 / 10, rel=1e-15)  # static mass, 5 axles
+    assert ws[cr.W_R] == 0.55 and ws[cr.W_I] == 4.4 and ws[cr.W_VREG] == 0.8
+    assert ws[cr.W_J] == pytest.approx(210.0 + 4.4 ** 2 * 50.0, rel=1e-15)
+    misc = low.drive_misc[0]
+    assert misc[L.DM_MOTORS] == 4 and misc[L.DM_PER_LOCO] == 4  # one powered vehicle
+    assert misc[L.DM_GEAR_EFF] == 0.96 and misc[L.DM_SLIP_ON] == 0.0
+    assert misc[L.DM_VDC] == 2180.0 and misc[L.DM_FADE] == TRACTION["dynamic_brake_fade"]
+    sp = low.drive_slip[0]
+    assert sp[cr.S_WSET] == 0.21 and sp[cr.S_WSLOPE] == 0.03
+    assert sp[cr.S_TRACK] == 15.0
+    assert sp[cr.S_GAIN] == pytest.approx(ws[cr.W_J] * 15.0 / 0.55, rel=1e-15)
+    y0 = low.y0[z:z + 9]
+    assert y0[foc.S_FLUX] == pytest.approx(y0[2], rel=1e-15)  # rotor flux on d, at rated
+    assert y0[2] / low.drive_motor[0, M_LM] > 0.0
+    assert y0[7] == pytest.approx(2.5 / 0.55, rel=1e-15)  # the wheel rolls with the train
+    assert y0[8] == pytest.approx(sp[cr.S_RECOV] * 3.0, rel=1e-12)  # the largest torque
+    assert Wheelset().axles == 6  # (the default the docs quote)
+    # a consist's own drive wins over [traction]'s
+    d["locomotives"] = [{"name": "lead", "vehicles": [0], "drive": "curve"}]
+    low = lower(build(d))
+    assert low.drive_of.tolist() == [-1] and low.drive_z.size == 0
+    d["traction"]["drive"] = "curve"
+    d["locomotives"][0]["drive"] = "induction"
+    assert lower(build(d)).drive_of.tolist() == [0]

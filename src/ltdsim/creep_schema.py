@@ -122,8 +122,8 @@ class SlipControl(_Strict):
                          description="slip velocity held at standstill, m/s (fitted to the "
                                      "peak of the wet-rail curve, docs/creep.md)")
     w_slope: float = Field(0.040, ge=0.0, le=0.5,
-                           description="rise of the held slip velocity with speed, "
-                                       "(m/s)/(m/s)")
+                           description="rise of the held slip velocity per m/s of "
+                                       "speed (m/s per m/s), -")
     bandwidth: float = Field(20.0, gt=0.0, le=500.0,
                              description="closed-loop bandwidth of the slip-velocity loop "
                                          "past the curve's peak, rad/s")

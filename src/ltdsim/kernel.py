@@ -26,7 +26,8 @@ can evaluate it any number of times per step.
 The right-hand side :func:`rhs` calls one function per subsystem, in this order:
 :func:`_resistance` (running, grade and curve resistance per vehicle), :func:`_brakes`
 (brake-cylinder fills and shoe forces), :func:`_traction` (the driver's demand and each
-locomotive consist's force and lag), :func:`_couplers` (each coupler's force through
+locomotive consist's force and lag), :func:`_induction` (the consists on the induction
+drive), :func:`_couplers` (each coupler's force through
 :func:`ltdsim.coupler_models.coupler_force`, the registry's dispatch) and
 :func:`_force_balance` (each vehicle's acceleration). They
 pass their results through the :class:`Work` arrays (``res``, ``bforce``, ``fcons``,
@@ -64,7 +65,9 @@ again at every call site, and with the right-hand side then called from three pl
 :func:`run` and four in :func:`run_adaptive` their first compile took about 140 s and
 200 s of CPU (now about 17 s each, and the second shares most of the first). The
 compiled kernels hold no calls to these functions: the machine code does the same work
-as before. No argument of these functions may be a constant at a call site either: numba
+as before. The one exception is the induction drive's :func:`_drive_axle`, a plain
+compiled function that :func:`_induction` calls: inlined into every copy of the
+right-hand side it added about half to the kernels' first compile. No argument of these functions may be a constant at a call site either: numba
 compiles a function once per set of argument types, and a constant such as ``0`` or
 ``True`` is a type of its own (hence the stage slices ``K[s * ny:(s + 1) * ny]`` rather
 than an offset ``0``).
@@ -79,6 +82,20 @@ from numba import njit
 
 from ltdsim.coupler_models import M_SIMPLIFIED, P_D0, coupler_force
 from ltdsim.layout import (
+    DM_FADE,
+    DM_GEAR_EFF,
+    DM_MOTORS,
+    DM_PER_LOCO,
+    DM_SLIP_ON,
+    DM_TO_RMS,
+    DM_VDC,
+    DS_CREEP,
+    DS_CURRENT,
+    DS_FORCE,
+    DS_PDC,
+    DS_SPEED,
+    DS_TORQUE,
+    N_DRIVE_SIGNALS,
     A_AREA,
     A_ATM,
     A_DIAM,
@@ -193,6 +210,8 @@ from ltdsim.physics.resistance import (
     grade_resistance,
 )
 from ltdsim.physics.traction import adhesion_limit, traction_limit
+from ltdsim.physics.creep import W_I, W_R, W_VREG, slip_control, wheelset_rate
+from ltdsim.physics.foc import N_DRIVE, N_OUT, O_ID, O_IQ, O_PDC, drive_rates
 
 #: kernel return codes
 OK, NONFINITE, EVENTS_FULL = 0, 1, 2
@@ -261,6 +280,23 @@ class AirBrake(NamedTuple):
     dv_cell: np.ndarray  # (brake-control points,) int64 cell each driver's valve feeds
 
 
+class Drive(NamedTuple):
+    """The induction drives (``traction.drive = "induction"``; empty rows when every
+    consist runs on its traction curve): per consist its drive's row or -1, and per
+    drive its first state in ``y`` (:data:`ltdsim.lowering.DRIVE_KINDS`: the drive's
+    :data:`~ltdsim.physics.foc.DRIVE_STATES`, the wheelset's angular speed rad/s, the
+    slip controller's torque limit N m) and its parameter rows."""
+
+    of: np.ndarray  # (consists,) int64 row of each consist's drive, -1: traction curve
+    z: np.ndarray  # (drives,) int64 offset of each drive's states in y
+    motor: np.ndarray  # (drives, induction.MOTOR_PARAMS) the machine
+    ctrl: np.ndarray  # (drives, foc.CTRL_PARAMS) the controller
+    ws: np.ndarray  # (drives, creep.WHEELSET_PARAMS) one driven wheelset
+    rail: np.ndarray  # (drives, creep.CREEP_PARAMS) the rail condition
+    slip: np.ndarray  # (drives, creep.SLIP_PARAMS) the slip controller
+    misc: np.ndarray  # (drives, layout.DRIVE_MISC) motors, gear efficiency, DC link, ...
+
+
 class Train(NamedTuple):
     """The lowered train and track (columns in :mod:`ltdsim.layout`)."""
 
@@ -274,6 +310,7 @@ class Train(NamedTuple):
     curve_h: float  # curve-resistance constant, - (physics.resistance.curve_resistance)
     tables: np.ndarray  # flat store of tables (gear curves, friction, notches, schedules)
     air: AirBrake  # the fluid air brake (empty for the lumped brake)
+    drive: Drive  # the induction drives (empty rows without any)
 
 
 class Couplers(NamedTuple):
@@ -346,6 +383,9 @@ class Work(NamedTuple):
     air: np.ndarray  # (N_AIR_ROWS, ny) or (N_AIR_ROWS, 0): the fluid brake's own steps in
     #                  run_adaptive (AIR_* rows; the pneumatic states at their places in y)
     air_step: np.ndarray  # one AIR_STEPPER record
+    ddem: np.ndarray  # (drives,) each induction drive's demand, N (from _traction)
+    dsig: np.ndarray  # (drives, N_DRIVE_SIGNALS) its signals (layout.DRIVE_SIGNALS)
+    dout: np.ndarray  # (drives, foc.N_OUT) its drive_rates outputs (foc.DRIVE_OUTPUTS)
 
 
 class Outputs(NamedTuple):
@@ -365,6 +405,7 @@ class Outputs(NamedTuple):
     bc: np.ndarray  # (records, n or 0) brake cylinder, Pa gauge (NaN: unbraked)
     ax: np.ndarray  # (records, 1 or 0) air exhausted to atmosphere so far, kg
     peaks: np.ndarray  # (n - 1, N_PEAKS) peak coupler forces over every step, PK_* columns
+    m: np.ndarray  # (records, drives, N_DRIVE_SIGNALS) induction drives' signals (DS_*)
 
 
 def make_train(low) -> Train:
@@ -372,9 +413,13 @@ def make_train(low) -> Train:
     air = AirBrake(gas=low.air_gas, index=low.air_index, dx_cell=low.pipe_dx_cell,
                    dx_face=low.pipe_dx_face, leak=low.pipe_leak, cv=low.cv_rows,
                    dv=low.dv_rows, dv_cell=low.dv_cell)
+    drive = Drive(of=low.drive_of, z=low.drive_z, motor=low.drive_motor,
+                  ctrl=low.drive_ctrl, ws=low.drive_ws, rail=low.drive_rail,
+                  slip=low.drive_slip, misc=low.drive_misc)
     return Train(veh=low.veh, inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
                  track_pos=low.track_pos, track_grade=low.track_grade,
-                 track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab, air=air)
+                 track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab, air=air,
+                 drive=drive)
 
 
 def make_couplers(low) -> Couplers:
@@ -412,11 +457,12 @@ def make_stepper(h0: float) -> np.ndarray:
 
 
 def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
-              air_steps: bool = False) -> Work:
+              air_steps: bool = False, drives: int = 0) -> Work:
     """:class:`Work` for ``n`` vehicles, a state of ``ny`` elements, ``stages`` stage
     derivatives, ``n_consists`` locomotive consists and ``cells`` brake-pipe cells
     (fluid brake); ``air_steps``: the fluid brake's pneumatic states take their own
-    steps (:func:`run_adaptive` with ``brake.model = "fluid"``)."""
+    steps (:func:`run_adaptive` with ``brake.model = "fluid"``); ``drives`` induction
+    drives."""
     nc = max(n - 1, 1)
     air_step = np.zeros(1, dtype=AIR_STEPPER)
     air_step[0]["h"] = 1e-4
@@ -425,17 +471,19 @@ def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
                 force=np.zeros(nc), defl=np.zeros(nc), res=np.zeros(n), bforce=np.zeros(n),
                 fcons=np.zeros(n_consists), sig=np.zeros(1, dtype=SIGNALS),
                 hints=np.zeros(n + 2 + n_consists, dtype=np.int64), inflow=np.zeros(cells),
-                air=np.zeros((N_AIR_ROWS, ny if air_steps else 0)), air_step=air_step)
+                air=np.zeros((N_AIR_ROWS, ny if air_steps else 0)), air_step=air_step,
+                ddem=np.zeros(drives), dsig=np.zeros((drives, N_DRIVE_SIGNALS)),
+                dout=np.zeros((drives, N_OUT)))
 
 
 def work_size(n: int, ny: int, stages: int, n_consists: int = 1, cells: int = 0,
-              air_steps: bool = False) -> int:
+              air_steps: bool = False, drives: int = 0) -> int:
     """Elements (8 bytes each) of the :class:`Work` that :func:`make_work` builds for the
     same arguments, counted without allocating it (the memory check before a run)."""
     nc = max(n - 1, 1)
     return (stages * ny + 2 * ny + 2 * nc + 2 * n + n_consists + len(SIGNALS.names)
             + n + 2 + n_consists + cells + (N_AIR_ROWS * ny if air_steps else 0)
-            + len(AIR_STEPPER.names))
+            + len(AIR_STEPPER.names) + drives * (1 + N_DRIVE_SIGNALS + N_OUT))
 
 @njit(cache=True, inline="always")
 def _segment(xs, x, hint):
@@ -959,6 +1007,10 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
         else:
             dem = fd * cons[c, K_SHARE]
         fdem += dem
+        kd = tr.drive.of[c]
+        if kd >= 0:  # an induction drive: _induction turns the demand into force
+            w.ddem[kd] = dem
+            continue
         dl = min(max(dem, -lim), lim)
         z = int(cons[c, K_Z])
         if z >= 0:  # motor and inverter lag, with the jerk limit on its rate
@@ -980,6 +1032,84 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
     sig = w.sig[0]
     sig["traction"] = ftot
     sig["demand"] = fdem
+
+
+@njit(cache=True, _nrt=False)
+def _drive_axle(y, dy, z, vc, dem, motor, ctrl, ws, rail, slip, misc, out, sg):
+    """One induction drive (a consist's motors, alike) at vehicle speed ``vc`` (m/s)
+    under the consist's demand ``dem`` (N): the rates of its states at ``y[z:]`` into
+    ``dy``, its signals into ``sg``; returns the consist's creep force, N (law in
+    :func:`_induction`). A compiled function of its own, called, not inlined: inlined
+    into every copy of the right-hand side it made the kernels' first compile slower
+    (docs/induction-drive-train.md)."""
+    zw = z + N_DRIVE
+    r = ws[W_R]
+    gr = ws[W_I]
+    eta = misc[DM_GEAR_EFF]
+    nm = misc[DM_MOTORS]
+    fade = misc[DM_FADE]
+    if dem < 0.0 and fade > 0.0:
+        dem *= min(max(vc / fade, 0.0), 1.0)
+    tw = dem * r / nm
+    om = y[zw]
+    if misc[DM_SLIP_ON] > 0.0:
+        if tw >= 0.0:
+            tw, rate = slip_control(y[zw + 1], tw, om, vc, r, slip)
+        else:  # braking: the same law on the mirrored slip (wheel-slide protection)
+            tw, rate = slip_control(y[zw + 1], -tw, -om, -vc, r, slip)
+            tw = -tw
+        dy[zw + 1] = rate
+    else:
+        dy[zw + 1] = 0.0
+    t_ref = tw / (gr * eta) if tw >= 0.0 else tw * eta / gr
+    wm = gr * om
+    te = drive_rates(y[z:zw], wm, t_ref, misc[DM_VDC], motor, ctrl, dy[z:zw], out)
+    tw_m = gr * eta * te if te * wm >= 0.0 else gr * te / eta
+    dom, f = wheelset_rate(om, vc, tw_m, ws, rail)
+    dy[zw] = dom
+    sg[DS_TORQUE] = te
+    sg[DS_SPEED] = wm
+    sg[DS_CURRENT] = misc[DM_TO_RMS] * np.sqrt(out[O_ID] * out[O_ID] + out[O_IQ] * out[O_IQ])
+    sg[DS_CREEP] = (om * r - vc) / max(abs(vc), ws[W_VREG])
+    sg[DS_FORCE] = misc[DM_PER_LOCO] * f
+    sg[DS_PDC] = misc[DM_PER_LOCO] * out[O_PDC]
+    return nm * f
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _induction(y, tr, w, dy):
+    """Force of each locomotive consist with the induction drive (N, + forward), written
+    to ``w.fcons`` and added to the signals' total traction; the rates of its states to
+    ``dy``; its signals to ``w.dsig`` (:data:`ltdsim.layout.DRIVE_SIGNALS`).
+
+    One motor, its controller, one wheelset and one slip controller stand for each of
+    the consist's motors (they share its speed and demand). The consist's demand
+    ``w.ddem`` (N, from :func:`_traction`; a braking demand faded below the fade speed as
+    on the curve) becomes a wheel-torque demand ``dem r / motors`` (N m); the slip
+    controller (:func:`ltdsim.physics.creep.slip_control`; in braking the same law on
+    the mirrored slip) may lower its magnitude; the motor's torque demand is it over
+    ``G eta`` (motoring) or times ``eta / G`` (braking). The drive
+    (:func:`ltdsim.physics.foc.drive_rates`) gives the motor torque ``T_m`` at the shaft
+    speed ``G omega``; the gear gives the wheelset ``G eta T_m`` (motoring) or ``G T_m /
+    eta`` (braking: the gear's loss is then on the wheel's side); the wheelset
+    (:func:`ltdsim.physics.creep.wheelset_rate`) turns under it against the creep force,
+    which pushes the consist ``motors`` times."""
+    d = tr.drive
+    if d.z.shape[0] == 0:
+        return
+    cons = tr.cons
+    n = tr.veh.shape[0]
+    ftot = 0.0
+    for c in range(cons.shape[0]):
+        kd = d.of[c]
+        if kd < 0:
+            continue
+        vc = y[n + int(cons[c, K_VEH])]
+        fc = _drive_axle(y, dy, d.z[kd], vc, w.ddem[kd], d.motor[kd], d.ctrl[kd], d.ws[kd],
+                         d.rail[kd], d.slip[kd], d.misc[kd], w.dout[kd], w.dsig[kd])
+        w.fcons[c] = fc
+        ftot += fc
+    w.sig[0]["traction"] += ftot
 
 
 @njit(cache=True, inline="always")
@@ -1055,6 +1185,7 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     rtot = _resistance(y, tr, w)
     _brakes(t, y, events, n_events, tr, dr, w, dy)
     _traction(t, y, a_dem, rtot, tr, dr, w, dy)
+    _induction(y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
 
@@ -1069,6 +1200,7 @@ def rhs_split(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     rtot = _resistance(y, tr, w)
     _brakes_split(t, y, events, n_events, tr, dr, w, dy)
     _traction(t, y, a_dem, rtot, tr, dr, w, dy)
+    _induction(y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
 
@@ -1625,6 +1757,9 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
     if out.c.shape[1] > 0:
         for c in range(cons.shape[0]):
             out.c[r, c] = w.fcons[c]
+    for kd in range(out.m.shape[1]):
+        for q in range(N_DRIVE_SIGNALS):
+            out.m[r, kd, q] = w.dsig[kd, q]
     sig = w.sig[0]
     out_s[r, S_TRACTION] = sig["traction"]
     adh = 0.0

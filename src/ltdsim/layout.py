@@ -123,3 +123,21 @@ N_EVENT_COLUMNS = len(EVENT_COLUMNS)
 #: emergency
 COMMAND_KINDS = ("level", "release", "service", "emergency")
 CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, CMD_EMERGENCY = layout(*COMMAND_KINDS)
+
+#: columns of an induction drive's row of further constants (``Lowered.drive_misc``,
+#: traction.drive = "induction"): motors (= driven wheelsets) of the consist, gear
+#: efficiency -, DC-link voltage V, slip control on (1) or off (0), factor from the peak
+#: line current to the rms winding current -, motors per locomotive, dynamic-brake fade
+#: speed m/s
+DRIVE_MISC = ("motors", "gear_efficiency", "dc_link_voltage", "slip_control", "to_rms",
+              "per_locomotive", "fade")
+(DM_MOTORS, DM_GEAR_EFF, DM_VDC, DM_SLIP_ON, DM_TO_RMS, DM_PER_LOCO, DM_FADE) = layout(
+    *DRIVE_MISC)
+N_DRIVE_MISC = len(DRIVE_MISC)
+#: the induction drives' recorded signals per consist (kernel ``Work.dsig`` and the
+#: record ``Outputs.m``): motor torque N m, motor speed rad/s, stator current A rms
+#: winding, creep -, creep force per locomotive N, DC power per locomotive W
+DRIVE_SIGNALS = ("motor_torque", "motor_speed", "stator_current", "creep", "creep_force",
+                 "dc_power")
+(DS_TORQUE, DS_SPEED, DS_CURRENT, DS_CREEP, DS_FORCE, DS_PDC) = layout(*DRIVE_SIGNALS)
+N_DRIVE_SIGNALS = len(DRIVE_SIGNALS)

@@ -15,6 +15,7 @@ import numpy as np
 from ltdsim.coupler_models import N_CCOL, P_D0, lower_coupler
 from ltdsim.integrators import BS23, Tableau, get_tableau
 from ltdsim.layout import (
+    N_DRIVE_MISC,
     CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, N_EVENT_COLUMNS, A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
     D_BMODEL, I_CELLS, I_CV, I_DV, I_EXH, I_NCP, I_PIPE, N_AIR, N_AIR_INDEX, V_BAREA, V_BCELL,
     V_BCV, V_BGAIN, V_BINVSHOES, V_BPFS, V_BSPRING,
@@ -85,6 +86,19 @@ class Lowered:
     cv_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     dv_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     dv_cell: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    # the induction drives (traction.drive = "induction"; empty rows without any): the
+    # drive of each consist (-1: the traction curve), each drive's consist index is
+    # implicit in drive_of; its first state in y, its motor (induction.MOTOR_PARAMS),
+    # controller (foc.CTRL_PARAMS), wheelset (creep.WHEELSET_PARAMS), rail
+    # (creep.CREEP_PARAMS), slip-controller (creep.SLIP_PARAMS) and DM_* rows
+    drive_of: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    drive_z: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    drive_motor: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    drive_ctrl: np.ndarray = field(default_factory=lambda: np.zeros((0, 18)))
+    drive_ws: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    drive_rail: np.ndarray = field(default_factory=lambda: np.zeros((0, 5)))
+    drive_slip: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    drive_misc: np.ndarray = field(default_factory=lambda: np.zeros((0, N_DRIVE_MISC)))
 
     @property
     def n(self) -> int:
@@ -161,6 +175,7 @@ def lower(s: Scenario) -> Lowered:
     t = s.traction
     consists = s.consists()
     cons = np.zeros((len(consists), N_KCOL))
+    drive_rows: list[dict] = []
     d = s.driver
     for k, loco in enumerate(consists):
         def pick(key, loco=loco):
@@ -172,7 +187,14 @@ def lower(s: Scenario) -> Lowered:
         row[K_DBFADE] = t.dynamic_brake_fade
         row[K_Z] = -1.0
         row[K_VEH] = loco.vehicles[0]
-        if row[K_TAU] > 0.0:
+        if (loco.drive or t.drive) == "induction":
+            # the induction drive replaces the lag: its states (motor, controller,
+            # wheelset, slip limit) among the mechanical ones, before any brake state
+            drive_rows.append(_drive_rows(s, loco, k, ny))
+            ny += N_DRIVE_STATES
+            y0_extra.extend(drive_rows[-1]["y0"])
+            kinds.extend(DRIVE_KINDS)
+        elif row[K_TAU] > 0.0:
             row[K_Z] = ny
             ny += 1
             y0_extra.append(0.0)
@@ -299,6 +321,8 @@ def lower(s: Scenario) -> Lowered:
              "position": sv.atol,
              # a running total of flows the other states control; it feeds nothing back
              "exhausted": np.inf}
+    scale.update({"flux": sv.atol, "volt": sv.atol * VOLT_SCALE,
+                  "omega": sv.atol, "torque": sv.atol * FORCE_SCALE})
     atol = np.array([scale[k] for k in kinds])
     rtol = np.array([0.0 if k in ("x", "exhausted") else sv.rtol for k in kinds])
     return Lowered(
@@ -311,8 +335,79 @@ def lower(s: Scenario) -> Lowered:
         n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
         atol=atol, rtol=rtol, max_step=float(sv.max_step),
         air_max_step=float(sv.air_max_step), adaptive=sv.adaptive,
-        **fluid_extra,
+        **fluid_extra, **_drive_fields(drive_rows, len(consists)),
     )
+
+
+#: what each of an induction-drive consist's states is, for the bs23 error weights: the
+#: drive's (foc.DRIVE_STATES: four flux linkages, the controller's flux, Wb; its two
+#: integrators, V), the wheelset's angular speed (rad/s) and the slip controller's limit
+#: (N m)
+DRIVE_KINDS = ["flux"] * 5 + ["volt"] * 2 + ["omega", "torque"]
+N_DRIVE_STATES = len(DRIVE_KINDS)
+#: V: the current controllers' integrators enter the error weights as atol x 1e3 V
+#: (atol 1e-6 -> 1 mV against the 1259 V limit)
+VOLT_SCALE = 1.0e3
+
+
+def _drive_rows(s: Scenario, loco, k: int, z: int) -> dict:
+    """The parameter rows and initial state of consist ``k``'s induction drive with its
+    states at ``z``: one motor, controller, wheelset and slip controller stand for each
+    of the consist's ``per_locomotive x vehicles`` motors (they share the consist's speed
+    and demand, so they run alike)."""
+    from ltdsim import creep_schema
+    from ltdsim.physics import foc
+    from ltdsim.physics.induction import motor_row
+
+    t = s.traction
+    motor = t.motor.motor()
+    m = motor_row(motor)
+    c = foc.controller_row(motor)
+    ws = t.creep.wheelset
+    mass = float(np.mean([s.vehicles[i].weight_mass for i in loco.vehicles]))
+    wrow = creep_schema.wheelset_row(ws, mass, s.track.gravity, motor.rotor_inertia)
+    rail = creep_schema.rail_row(t.creep.rail)
+    # the largest motor torque: the current limit at rated flux (foc.drive_rates)
+    kt = 1.5 * c[foc.C_P] * c[foc.C_LM] ** 2 / c[foc.C_LR]
+    id0 = c[foc.C_PSI0] / c[foc.C_LM]
+    t_lim = kt * id0 * np.sqrt(max(c[foc.C_IMAX] ** 2 - id0 ** 2, 0.0))
+    t_max = ws.gear_ratio * ws.gear_efficiency * t_lim
+    slip = creep_schema.slip_row(t.creep.slip_control, wrow, t_max)
+    n_motors = t.motor.per_locomotive * len(loco.vehicles)
+    v0 = (s.initial.speed if s.initial.velocities is None
+          else s.initial.velocities[loco.vehicles[0]])
+    y0 = [*foc.drive_init(m, c), v0 / ws.wheel_radius, t_max]
+    # peak line current -> rms winding current
+    to_rms = 1.0 / np.sqrt(2.0) / (np.sqrt(3.0) if motor.connection == "delta" else 1.0)
+    misc = np.array([float(n_motors), ws.gear_efficiency, motor.dc_link_voltage,
+                     1.0 if t.creep.slip_control.enabled else 0.0, to_rms,
+                     float(t.motor.per_locomotive), t.dynamic_brake_fade])
+    return {"cons": k, "z": z, "motor": m, "ctrl": c, "ws": wrow, "rail": rail,
+            "slip": slip, "misc": misc, "y0": y0}
+
+
+def _drive_fields(rows: list[dict], n_cons: int) -> dict:
+    """The ``Lowered`` fields of the induction drives (empty rows without any)."""
+    from ltdsim.physics import creep as _creep
+    from ltdsim.physics import foc
+    from ltdsim.physics.induction import N_MOTOR_PARAMS
+
+    of = np.full(n_cons, -1, np.int64)
+    for j, r in enumerate(rows):
+        of[r["cons"]] = j
+
+    def stack(key, width):
+        return (np.array([r[key] for r in rows], dtype=float) if rows
+                else np.zeros((0, width)))
+    return {"drive_of": of,
+            "drive_z": np.array([r["z"] for r in rows], dtype=np.int64),
+            "drive_motor": stack("motor", N_MOTOR_PARAMS),
+            "drive_ctrl": stack("ctrl", foc.N_CTRL_PARAMS),
+            "drive_ws": stack("ws", _creep.N_WHEELSET_PARAMS),
+            "drive_rail": stack("rail", _creep.N_CREEP_PARAMS),
+            "drive_slip": stack("slip", _creep.N_SLIP_PARAMS),
+            "drive_misc": stack("misc", N_DRIVE_MISC)}
+
 
 
 def full_service_pressure(cv_row: np.ndarray, dv_row: np.ndarray) -> float:

@@ -36,6 +36,7 @@ from pydantic import (
     model_validator,
 )
 
+from ltdsim.creep_schema import Creep, wheelset_row
 from ltdsim.errors import ScenarioError, _printable
 
 # Physical sanity bounds used in validation (documented in docs/scenario.md).
@@ -800,6 +801,46 @@ class Curving(_Strict):
                                                           "enforced); none: no stops, rad")
 
 
+class TractionMotor(BaseModel):
+    """The induction drive's motors: a shipped motor preset (data/motors/*.toml) with any
+    of its keys overridden here, and how many a locomotive carries (one per driven
+    wheelset)."""
+
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False, validate_default=True,
+                              strict=True)
+
+    preset: str = Field("study-850kw", description="shipped motor parameter set "
+                                                   "(data/motors/*.toml); other keys of "
+                                                   "this table replace the preset's")
+    per_locomotive: int = Field(6, ge=1, le=12, description="motors per locomotive, each "
+                                                            "driving one wheelset, -")
+
+    @model_validator(mode="after")
+    def _motor(self):
+        self.motor()  # raises a one-line ValueError for an unknown preset or a bad key
+        return self
+
+    def motor(self):
+        """The :class:`ltdsim.drive_schema.Motor` of the preset with the overrides."""
+        from ltdsim.drive_schema import Motor, load_motor, motor_presets
+
+        if self.preset not in motor_presets():
+            raise ValueError(f"unknown motor preset {self.preset!r}; available: "
+                             f"{', '.join(motor_presets()) or 'none'}")
+        base = load_motor(self.preset).model_dump()
+        extra = dict(self.model_extra or {})
+        unknown = sorted(set(extra) - set(base))
+        if unknown:
+            raise ValueError(f"unknown key {unknown[0]!r}; allowed: preset, per_locomotive, "
+                             f"{', '.join(base)}")
+        try:
+            return Motor(**{**base, **extra})
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            key = ".".join(str(x) for x in err["loc"]) or "(table)"
+            raise ValueError(f"{key}: {err['msg']}") from None
+
+
 class Traction(_Strict):
     """Traction curve and acceleration limits of the driving locomotives (together)."""
 
@@ -831,6 +872,18 @@ class Traction(_Strict):
         0.0, ge=0.0, le=30.0,
         description="speed below which dynamic braking fades linearly to 0, as motors give "
                     "no braking at standstill, m/s (0 = the study's mirrored curve down to 0)")
+    drive: Literal["curve", "induction"] = Field(
+        "curve", description="what turns the demand into force: the traction curve and its "
+                             "lag (curve), or induction motors under field-oriented control "
+                             "driving wheelsets through the wheel-rail creep law (induction; "
+                             "docs/induction-drive.md, docs/creep.md); per consist in "
+                             "[[locomotives]]")
+    motor: TractionMotor = Field(default_factory=lambda: TractionMotor(),
+                                 description="the induction drive's motors (drive = "
+                                             "\"induction\")")
+    creep: Creep = Field(default_factory=lambda: Creep(),
+                         description="the induction drive's wheel-rail contact, wheelsets "
+                                     "and slip control (drive = \"induction\")")
 
     @model_validator(mode="after")
     def _lag(self):
@@ -871,6 +924,8 @@ class Locomotive(_Strict):
         None, description="[t s, notch -] its own throttle, held until the next point "
                           "(independent distributed power); whole notches in [-8, 8]; not on "
                           "the lead consist; none: the consist follows the driver")
+    drive: Literal["curve", "induction"] | None = Field(
+        None, description="its drive (none: [traction] drive)")
     brake_control: bool = Field(True, description="also a brake-control point: under "
                                                   "distributed power the remote units vent "
                                                   "and charge the brake pipe with the lead")
@@ -1315,6 +1370,7 @@ class Scenario(_Strict):
                 problem = v.geometry_problem()
                 if problem:
                     raise ValueError(f"vehicles.{i}.{problem} (needed by [curving])")
+        self._check_drives()
         names = [p.name for p in self.phases]
         if len(set(names)) != len(names):
             raise ValueError(f"phases: names must differ, got {names}")
@@ -1372,6 +1428,28 @@ class Scenario(_Strict):
                 raise ValueError(f"driver.brake_commands.{k}.reduction: {c.reduction:g} Pa "
                                  f"must be below the regulated pipe pressure, {regulated:g} "
                                  "Pa (gauge)")
+
+    def _check_drives(self) -> None:
+        """The induction drive: at most one motor per axle, a wheel load the creep law's
+        contact geometry is meant for."""
+        t = self.traction
+        for k, loco in enumerate(self.consists()):
+            if (loco.drive or t.drive) != "induction":
+                continue
+            axles = t.creep.wheelset.axles
+            if t.motor.per_locomotive > axles:
+                raise ValueError(f"traction.motor.per_locomotive: {t.motor.per_locomotive} "
+                                 f"motors but traction.creep.wheelset.axles = {axles}: at "
+                                 "most one motor per axle")
+            for i in loco.vehicles:
+                if self.vehicles[i].weight_mass * 9.81 / (2 * axles) > 2.5e5:
+                    raise ValueError(f"vehicles.{i}: a wheel load above 250 kN "
+                                     f"(static mass over 2 x traction.creep.wheelset.axles)")
+                try:  # the contact ellipse must lie within Kalker's table
+                    wheelset_row(t.creep.wheelset, self.vehicles[i].weight_mass,
+                                 self.track.gravity)
+                except ValueError as exc:
+                    raise ValueError(f"traction.creep.wheelset: {exc}") from None
 
     def _check_locomotives(self, n: int) -> None:
         if not self.locomotives:

@@ -12,8 +12,8 @@ import xarray as xr
 
 from ltdsim import kernel
 from ltdsim.errors import ScenarioError, SimulationError
-from ltdsim.layout import N_EVENT_COLUMNS
-from ltdsim.lowering import MAX_EVENTS, Lowered, lower
+from ltdsim.layout import DRIVE_SIGNALS, N_DRIVE_SIGNALS, N_EVENT_COLUMNS
+from ltdsim.lowering import MAX_EVENTS, N_DRIVE_STATES, Lowered, lower
 from ltdsim.integrators import get_tableau
 from ltdsim.scenario import Scenario
 
@@ -45,9 +45,25 @@ UNITS = {
     "auxiliary_reservoir_pressure": "Pa (gauge)",
     "brake_cylinder_pressure": "Pa (gauge)",
     "air_exhausted": "kg",
+    "motor_torque": "N m",
+    "motor_speed": "rad/s",
+    "stator_current": "A (rms)",
+    "creep": "1",
+    "creep_force": "N",
+    "dc_power": "W",
 }
 
 DESCRIPTIONS = {
+    "motor_torque": "induction drive: electromagnetic torque of one traction motor at its "
+                    "shaft (NaN: a consist on the traction curve)",
+    "motor_speed": "induction drive: shaft speed of one traction motor (x 30/pi for rpm)",
+    "stator_current": "induction drive: stator winding current of one traction motor, rms",
+    "creep": "induction drive: creep of the driven wheelsets, slip velocity over "
+             "max(speed, v_reg)",
+    "creep_force": "induction drive: longitudinal creep force of all the locomotive's "
+                   "driven wheelsets, + forward",
+    "dc_power": "induction drive: DC-link power of all the locomotive's inverters, + drawn "
+                "(motoring), - returned (braking)",
     "position": "track position of the vehicle centre (lead vehicle starts at 0)",
     "velocity": "vehicle speed, + forwards",
     "acceleration": "vehicle acceleration",
@@ -104,8 +120,10 @@ def recording_bytes(scenario: Scenario) -> int:
     nb = n if braked else 0
     nk = len(scenario.consists())
     n_samples = sv.n_steps // sv.record_every + 1
+    nd = sum((loco.drive or scenario.traction.drive) == "induction"
+             for loco in scenario.consists())
     per_sample = (3 * n + 2 * nc + kernel.N_SCALARS + 2 * nb + (nk if nk > 1 else 0)
-                  + 2 * n + 2)
+                  + 2 * n + 2 + 2 * nd * N_DRIVE_SIGNALS)
     ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
     cells = 0
     if scenario.brake.model == "fluid":
@@ -116,7 +134,8 @@ def recording_bytes(scenario: Scenario) -> int:
         ny += 2 * cells + braked * kernel.N_CV + nk * kernel.N_DV + 1
     stages = 4 if sv.adaptive else get_tableau(sv.method).stages
     air_steps = sv.adaptive and scenario.brake.model == "fluid"
-    work = (kernel.work_size(n, ny, stages, nk, cells, air_steps)
+    ny += nd * N_DRIVE_STATES
+    work = (kernel.work_size(n, ny, stages, nk, cells, air_steps, nd)
             + 4 * ny + 4 * nc + n + 2 + nk)
     return 8 * (n_samples * per_sample + work)
 
@@ -192,7 +211,9 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         ``relative_velocity`` (time x vehicle); ``coupler_deflection``,
         ``coupler_force`` (time x coupler); ``traction_force``, ``speed_reference``,
         ``speed_error``, ``adhesion_limit``, ``demanded_acceleration``,
-        ``traction_demand`` (time). Units are
+        ``traction_demand`` (time); with the induction drive ``motor_torque``,
+        ``motor_speed``, ``stator_current``, ``creep``, ``creep_force``, ``dc_power``
+        (time x locomotive, NaN for a consist on the traction curve). Units are
         in each variable's ``units`` attribute; the scenario (JSON) and run facts are in
         the dataset's attributes.
 
@@ -233,6 +254,7 @@ def _buffers(low: Lowered, n_rec: int):
         "c": np.zeros((n_rec, nk if nk > 1 else 0)),
         "bp": np.zeros((n_rec, nf)), "ar": np.zeros((n_rec, nf)), "bc": np.zeros((n_rec, nf)),
         "ax": np.zeros((n_rec, 1 if nf else 0)),
+        "m": np.zeros((n_rec, low.drive_z.size, N_DRIVE_SIGNALS)),
         "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
         "events": np.zeros((MAX_EVENTS, N_EVENT_COLUMNS)),
     }
@@ -243,7 +265,8 @@ def _buffers(low: Lowered, n_rec: int):
     out = kernel.Outputs(**{k: rec[k] for k in kernel.Outputs._fields})
     common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
               kernel.make_work(n, y.shape[0], stages, nk, low.pipe_dx_cell.size,
-                               air_steps=low.adaptive and low.fluid), out)
+                               air_steps=low.adaptive and low.fluid,
+                               drives=low.drive_z.size), out)
     if low.adaptive:
         grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
                                h_max=low.max_step,
@@ -396,7 +419,17 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         data["air_exhausted"] = ("time", rec["ax"][:, 0])
     if rec["c"].shape[1]:
         data["locomotive_force"] = (("time", "locomotive"), rec["c"])
+    if rec["c"].shape[1] or low.drive_z.size:
         coords["locomotive"] = ("locomotive", [c.name for c in scenario.consists()])
+    if low.drive_z.size:
+        # per consist (NaN for one on the traction curve); per motor or per locomotive
+        # as DESCRIPTIONS says
+        for q, name in enumerate(DRIVE_SIGNALS):
+            arr = np.full((n_rec, low.drive_of.size), np.nan)
+            for c, kd in enumerate(low.drive_of):
+                if kd >= 0:
+                    arr[:, c] = rec["m"][:, kd, q]
+            data[name] = (("time", "locomotive"), arr)
     ds = xr.Dataset(data, coords=coords)
     for name, unit in UNITS.items():
         if name in ds:
