@@ -56,6 +56,7 @@ LIBRARY = (0.9, 0.7, 0.4, 1.0, 0.9)
 #: library's kernel itself)
 IDEAS: dict[str, tuple[dict[str, float], tuple | None]] = {
     "reference": ({}, None),
+    "speeds at 1 x atol (before SPEED_SCALE)": ({"speed": 0.1}, None),
     "controller copy (library constants)": ({}, LIBRARY),
     "gear force atol x3": ({"gear force": 3.0}, None),
     "gear force atol x10": ({"gear force": 10.0}, None),
