@@ -201,7 +201,7 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     track = {"gradient": [[0.0, 0.0], [130.0, 0.004]], "curve": [[0.0, 0.0], [70.0, 450.0]],
              "curve_h": 610.0, "gravity": 9.79}
     solver = {"method": "bs23", "dt": 2e-4, "t_end": 3.0, "output_interval": 2e-3,
-              "rtol": 3e-6, "atol": 2e-7, "max_step": 0.03}
+              "rtol": 3e-6, "atol": 2e-7, "max_step": 0.03, "air_max_step": 0.7}
     initial = {"velocities": [1.1, 1.2, 1.3, 1.4, 1.5], "couplers": "bunched"}
     driver = {"mode": "notch", "notch_profile": [[0.0, 3.0], [2.0, 5.0]],
               "brake_profile": [[1.0, 0.5]], "brake_positions": [[40.0, 0.7]],
@@ -242,10 +242,12 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     assert low.curve_h == 610.0 and low.trac[col(T, "gravity")] == 9.79
     # solver
     assert low.adaptive and low.dt == 2e-4 and low.max_step == 0.03
+    assert low.air_max_step == 0.7
     assert low.record_every == 10 and low.n_steps == 15000  # 3 s / 2e-4 s
     nv = len(masses)
     assert (low.rtol[:nv] == 0.0).all() and (low.rtol[nv:] == 3e-6).all()
-    assert (low.atol[:2 * nv] == 2e-7).all()
+    assert (low.atol[:nv] == 2e-7).all()  # positions: atol
+    assert low.atol[nv:2 * nv] == pytest.approx(2e-6)  # vehicle speeds: 10 x atol
     assert low.atol[low.cons[0, col(K, "lag_state")].astype(int)] == pytest.approx(2e-7 * 1e6)
     # driver: notch mode and its profile; brake schedule and position triggers
     assert low.drv[col(D, "mode")] == L.DRIVER_MODES.index("notch")
