@@ -96,9 +96,10 @@ class Solver(_Strict):
                         description="bs23: relative tolerance (not applied to positions, "
                                     "whose size is arbitrary), -")
     atol: float = Field(1e-6, gt=0.0, le=1.0,
-                        description="bs23: absolute tolerance on displacements, speeds, plate "
+                        description="bs23: absolute tolerance on displacements, plate "
                                     "travel, brake fill and the fluid brake's valve "
-                                    "positions, m and m/s (force states use atol x 1e6 N/m: "
+                                    "positions, m and m/s (vehicle speeds use atol x 10: "
+                                    "1e-4 means 1 mm/s; force states atol x 1e6 N/m: "
                                     "1e-6 means 1 N; the fluid brake's pressures atol x 1e6 "
                                     "Pa/m, 1 Pa, and pipe flows atol x 10 kg/(s m), 1e-5 "
                                     "kg/s)")
