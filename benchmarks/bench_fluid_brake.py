@@ -161,13 +161,17 @@ def _publish(args, rounds, t_trip, uic, cpu, wall, ratios, last) -> dict:
                      f"{stop['stopping_distance_m']:.0f} m, {stop['stopping_time_s']:.1f} s "
                      f"from {stop['speed_m_s'] * 3.6:.0f} km/h"))
     if brake_uic is not None:
-        rows.append(("uic-freight: emergency propagation; rear cylinder at 95 %",
+        rows.append(("uic-freight: emergency propagation (0.3 bar drop) end to end, and the "
+                     "slope along the train; rear cylinder at 95 %",
+                     f"{brake_uic['end_to_end_speed_m_s']:.0f} m/s, "
                      f"{brake_uic['propagation_speed_m_s']:.0f} m/s; "
                      f"{brake_uic['last_cylinder_95_s']:.1f} s after the command"))
     if brake_hh is not None:
-        rows.append(("heavy-haul trip, fluid: first application's propagation",
-                     f"{brake_hh['propagation_speed_m_s']:.0f} m/s at "
-                     f"{brake_hh['command_time_s']:.0f} s"))
+        rows.append(("heavy-haul trip, fluid: first application (0.3 bar drop) end to end; "
+                     "slope along the train (fit RMS)",
+                     f"{brake_hh['end_to_end_speed_m_s']:.0f} m/s at "
+                     f"{brake_hh['command_time_s']:.0f} s; {brake_hh['propagation_speed_m_s']:.0f}"
+                     f" m/s ({brake_hh['propagation_fit_rms_s']:.2f} s)"))
     result = {"trip_s": t_trip, "rounds": rounds, "cpu_s": cpu, "wall_s": wall,
               "ratios": ratios, "ratio_median": ratio, "uic_realtime_factor": realtime,
               "uic_lumped_realtime_factor": uic.solver.t_end / med["uic_lumped"],
