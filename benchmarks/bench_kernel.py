@@ -13,6 +13,11 @@ Runs, in one process:
     times (median);
   * SciPy: the same model as a NumPy right-hand side (ltdsim.reference) under
     ``solve_ivp(method="RK23", rtol=1e-6)`` over the first seconds only;
+  * the study case with the induction drive (scenarios/paper-induction.toml: the same
+    train, profile and PID, ode3 at 1e-4 s, 270 s) against the traction-curve study case
+    (paper.toml, case LHHL), both whole ``simulate()`` runs warmed first, in interleaved
+    rounds (the order alternating), CPU time of this process, each round's ratio, medians
+    (the issue's target: at most 2x);
   * with ``--baseline REV`` (default: the commit before the engine's redesign), the
     study case LHHL by this version and by ``REV`` (a fresh clone), each in child
     processes, rounds interleaved, CPU time of the child's runs, medians;
@@ -49,6 +54,7 @@ from ltdsim.reference import make_rhs
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 PAPER = ROOT / "scenarios" / "paper.toml"
+PAPER_DRIVE = ROOT / "scenarios" / "paper-induction.toml"
 STUDY_SECONDS_PER_CASE = 854.7  # the study's Simulink time per case (paper §5)
 #: the commit before issue 14's engine redesign landed its later steps: the study case's
 #: time there is the baseline the redesign must not exceed
@@ -94,6 +100,27 @@ def _against_reference(sc, rounds: int) -> dict:
             times[name]["wall"].append(w1 - w0)
     return {"max_force_difference_N": diff, "values_compared": int(sim_force.size),
             "max_abs_force_N": float(np.max(np.abs(ref_force))), "times": times}
+
+
+def _drive_against_curve(curve, drive, rounds: int) -> dict:
+    """CPU and wall seconds of ``simulate(drive)`` and ``simulate(curve)``: a warm-up of
+    both, then ``rounds`` interleaved rounds (the order alternating); each round's ratio
+    drive / curve of CPU time."""
+    ltdsim.simulate(curve)
+    ltdsim.simulate(drive)
+    runs = {"curve": curve, "drive": drive}
+    times = {k: {"cpu": [], "wall": []} for k in runs}
+    for r in range(rounds):
+        for name in (("curve", "drive") if r % 2 == 0 else ("drive", "curve")):
+            c0, w0 = _clocks()
+            ltdsim.simulate(runs[name])
+            c1, w1 = _clocks()
+            times[name]["cpu"].append(c1 - c0)
+            times[name]["wall"].append(w1 - w0)
+        print(f"drive round {r + 1}/{rounds} done", file=sys.stderr, flush=True)
+    times["round ratios"] = [a / b for a, b in zip(times["drive"]["cpu"],
+                                                   times["curve"]["cpu"])]
+    return times
 
 
 _CHILD = r"""
@@ -173,6 +200,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--scipy-repeats", type=int, default=3)
     ap.add_argument("--rounds", type=int, default=11,
                     help="interleaved rounds of simulate() against the reference kernel")
+    ap.add_argument("--drive-rounds", type=int, default=7,
+                    help="interleaved rounds of the induction-drive case against the curve's")
     ap.add_argument("--baseline", default=BASELINE,
                     help="git revision whose study-case time is the baseline ('' to skip)")
     ap.add_argument("--baseline-rounds", type=int, default=5)
@@ -254,6 +283,18 @@ def main(argv=None) -> dict:
          f"{sp_per_rhs / lt_per_rhs:.0f}x"),
         ("ratio study (Simulink, 854.7 s per case) / ltdsim", f"{STUDY_SECONDS_PER_CASE / wall:.0f}x"),
     ]
+    drv = _drive_against_curve(sc, ltdsim.load_scenario(PAPER_DRIVE), args.drive_rounds)
+    dc = statistics.median(drv["curve"]["cpu"])
+    dd = statistics.median(drv["drive"]["cpu"])
+    rows += [
+        ("study case LHHL (270 s, ode3 at 1e-4 s), traction curve, whole simulate(), CPU s "
+         "(wall s)", f"{dc:.3f} ({statistics.median(drv['curve']['wall']):.3f})"),
+        ("the same with the induction drive (paper-induction.toml), CPU s (wall s)",
+         f"{dd:.3f} ({statistics.median(drv['drive']['wall']):.3f})"),
+        (f"ratio drive / curve, CPU, median of the {args.drive_rounds} rounds' ratios "
+         "(target <= 2.0)", f"{statistics.median(drv['round ratios']):.3f}"),
+        ("ratio drive / curve, CPU, of the medians", f"{dd / dc:.3f}"),
+    ]
     base = None
     if args.baseline:
         base = _against_baseline(args.baseline, args.baseline_rounds, 2)
@@ -286,11 +327,16 @@ def main(argv=None) -> dict:
                        "ratio_cpu_of_medians": med["simulate"]["cpu"] / med["reference"]["cpu"],
                        "ratio_wall": med["simulate"]["wall"] / med["reference"]["wall"],
                        "ratio_cpu_per_round": per_round},
+        "drive_case": {"cpu_s": drv, "ratio_cpu": statistics.median(drv["round ratios"]),
+                       "ratio_cpu_of_medians": dd / dc},
         "baseline": None if base is None else {"revision": args.baseline, "cpu_s": base},
     }
     how = (f"; simulate() against the reference kernel: {args.rounds} interleaved rounds "
            "after a warm-up of both, CPU time of this process (time.process_time), each "
            "round's ratio, medians")
+    how += (f"; induction-drive study case against the curve's: {args.drive_rounds} "
+            "interleaved rounds after a warm-up of both, CPU time of this process, each "
+            "round's ratio, medians")
     if base is not None:
         how += (f"; study case against {args.baseline}: {args.baseline_rounds} rounds of one "
                 "child process per version, 2 runs each, CPU time, each round's ratio, medians")

@@ -75,7 +75,11 @@ class Wheelset(_Strict):
     """A driven wheelset of the locomotive, its contact with the rail and its gear."""
 
     axles: int = Field(6, ge=1, le=12, description="driven axles per locomotive; the axle "
-                                                  "load is its static mass x g / axles, -")
+                                                  "load is its static mass (or "
+                                                  "adhesion_mass) x g / axles, -")
+    adhesion_mass: float | None = Field(None, gt=0.0, le=1.0e7,
+                                        description="mass the driven wheelsets carry; none: "
+                                                    "the locomotive's static mass, kg")
     wheel_radius: float = Field(0.625, ge=0.3, le=0.7,
                                 description="rolling radius (1250 mm wheels), m")
     rail_radius: float = Field(0.3, ge=0.05, le=2.0,
@@ -151,8 +155,10 @@ def rail_row(rail: RailCondition) -> np.ndarray:
 def wheelset_row(ws: Wheelset, static_mass: float, gravity: float = 9.81,
                  motor_inertia: float = 0.0) -> np.ndarray:
     """The :data:`ltdsim.physics.creep.WHEELSET_PARAMS` row of one driven wheelset of a
-    locomotive of ``static_mass`` kg, with the motor rotor's inertia ``motor_inertia``
-    (kg m^2, at the motor shaft)."""
+    locomotive of ``static_mass`` kg (``ws.adhesion_mass`` instead when given), with the
+    motor rotor's inertia ``motor_inertia`` (kg m^2, at the motor shaft)."""
+    if ws.adhesion_mass is not None:
+        static_mass = ws.adhesion_mass
     return _creep.wheelset_row(
         static_mass=static_mass, axles=ws.axles, gravity=gravity,
         wheel_radius=ws.wheel_radius, rail_radius=ws.rail_radius, young=ws.young,

@@ -93,6 +93,10 @@ from ltdsim.layout import (
     DS_CURRENT,
     DS_FORCE,
     DS_PDC,
+    DS_PRD,
+    DS_PRQ,
+    DS_PSD,
+    DS_PSQ,
     DS_SPEED,
     DS_TORQUE,
     N_DRIVE_SIGNALS,
@@ -212,6 +216,7 @@ from ltdsim.physics.resistance import (
 from ltdsim.physics.traction import adhesion_limit, traction_limit
 from ltdsim.physics.creep import W_I, W_R, W_VREG, slip_control, wheelset_rate
 from ltdsim.physics.foc import N_DRIVE, N_OUT, O_ID, O_IQ, O_PDC, drive_rates
+from ltdsim.physics.induction import S_PRD, S_PRQ, S_PSD, S_PSQ
 
 #: kernel return codes
 OK, NONFINITE, EVENTS_FULL = 0, 1, 2
@@ -1073,6 +1078,10 @@ def _drive_axle(y, dy, z, vc, dem, motor, ctrl, ws, rail, slip, misc, out, sg):
     sg[DS_CREEP] = (om * r - vc) / max(abs(vc), ws[W_VREG])
     sg[DS_FORCE] = misc[DM_PER_LOCO] * f
     sg[DS_PDC] = misc[DM_PER_LOCO] * out[O_PDC]
+    sg[DS_PSD] = y[z + S_PSD]
+    sg[DS_PSQ] = y[z + S_PSQ]
+    sg[DS_PRD] = y[z + S_PRD]
+    sg[DS_PRQ] = y[z + S_PRQ]
     return nm * f
 
 

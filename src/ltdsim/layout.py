@@ -136,8 +136,11 @@ DRIVE_MISC = ("motors", "gear_efficiency", "dc_link_voltage", "slip_control", "t
 N_DRIVE_MISC = len(DRIVE_MISC)
 #: the induction drives' recorded signals per consist (kernel ``Work.dsig`` and the
 #: record ``Outputs.m``): motor torque N m, motor speed rad/s, stator current A rms
-#: winding, creep -, creep force per locomotive N, DC power per locomotive W
+#: winding, creep -, creep force per locomotive N, DC power per locomotive W; one motor's
+#: flux linkages in the controller's synchronous frame, Wb (peak): stator d, q, rotor d, q
 DRIVE_SIGNALS = ("motor_torque", "motor_speed", "stator_current", "creep", "creep_force",
-                 "dc_power")
-(DS_TORQUE, DS_SPEED, DS_CURRENT, DS_CREEP, DS_FORCE, DS_PDC) = layout(*DRIVE_SIGNALS)
+                 "dc_power", "stator_flux_d", "stator_flux_q", "rotor_flux_d",
+                 "rotor_flux_q")
+(DS_TORQUE, DS_SPEED, DS_CURRENT, DS_CREEP, DS_FORCE, DS_PDC, DS_PSD, DS_PSQ, DS_PRD,
+ DS_PRQ) = layout(*DRIVE_SIGNALS)
 N_DRIVE_SIGNALS = len(DRIVE_SIGNALS)

@@ -51,6 +51,10 @@ UNITS = {
     "creep": "1",
     "creep_force": "N",
     "dc_power": "W",
+    "stator_flux_d": "Wb",
+    "stator_flux_q": "Wb",
+    "rotor_flux_d": "Wb",
+    "rotor_flux_q": "Wb",
 }
 
 DESCRIPTIONS = {
@@ -64,6 +68,14 @@ DESCRIPTIONS = {
                    "driven wheelsets, + forward",
     "dc_power": "induction drive: DC-link power of all the locomotive's inverters, + drawn "
                 "(motoring), - returned (braking)",
+    "stator_flux_d": "induction drive: stator flux linkage of one traction motor, d axis "
+                     "of the controller's synchronous frame, peak",
+    "stator_flux_q": "induction drive: stator flux linkage of one traction motor, q axis "
+                     "of the controller's synchronous frame, peak",
+    "rotor_flux_d": "induction drive: rotor flux linkage of one traction motor (referred "
+                    "to the stator), d axis of the controller's synchronous frame, peak",
+    "rotor_flux_q": "induction drive: rotor flux linkage of one traction motor (referred "
+                    "to the stator), q axis of the controller's synchronous frame, peak",
     "position": "track position of the vehicle centre (lead vehicle starts at 0)",
     "velocity": "vehicle speed, + forwards",
     "acceleration": "vehicle acceleration",
@@ -212,7 +224,8 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         ``coupler_force`` (time x coupler); ``traction_force``, ``speed_reference``,
         ``speed_error``, ``adhesion_limit``, ``demanded_acceleration``,
         ``traction_demand`` (time); with the induction drive ``motor_torque``,
-        ``motor_speed``, ``stator_current``, ``creep``, ``creep_force``, ``dc_power``
+        ``motor_speed``, ``stator_current``, ``creep``, ``creep_force``, ``dc_power``,
+        ``stator_flux_d``, ``stator_flux_q``, ``rotor_flux_d``, ``rotor_flux_q``
         (time x locomotive, NaN for a consist on the traction curve). Units are
         in each variable's ``units`` attribute; the scenario (JSON) and run facts are in
         the dataset's attributes.
