@@ -80,7 +80,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ltdsim.coupler_models import M_SIMPLIFIED, P_D0, coupler_force
+from ltdsim.coupler_models import M_SIMPLIFIED, M_WEDGE, P_D0, coupler_force
 from ltdsim.layout import (
     DM_FADE,
     DM_GEAR_EFF,
@@ -1136,6 +1136,9 @@ def _couplers(y, tr, cp, w, dy):
     n = tr.veh.shape[0]
     u = cp.uniform
     if u == M_SIMPLIFIED:
+        for j in range(n - 1):
+            _coupler(j, u, y, n, cpl, ctab, w, dy)
+    elif u == M_WEDGE:
         for j in range(n - 1):
             _coupler(j, u, y, n, cpl, ctab, w, dy)
     else:
