@@ -67,10 +67,16 @@ def phase_norms(ds: xr.Dataset, scenario: Scenario | None = None) -> xr.Dataset:
     if not phases:
         raise ValueError("no phase overlaps the record")
     names = [p[0] for p in phases]
+    # each phase's samples a <= t <= b, as ds.sel(time=slice(a, b)) picks them on the
+    # sorted time axis (found once per phase, not once per variable and phase)
+    t = ds.time.values
+    spans = [(int(np.searchsorted(t, a, "left")), int(np.searchsorted(t, b, "right")))
+             for _, a, b in phases]
     parts = {}
     for var, dim in (("coupler_force", "coupler"), ("acceleration", "vehicle"),
                      ("traction_force", None), ("speed_error", None)):
-        rows = [_norms(ds[var].sel(time=slice(a, b)).values) for _, a, b in phases]
+        values = ds[var].values
+        rows = [_norms(values[i:k]) for i, k in spans]
         for k, kind in enumerate(("2norm", "infnorm", "rms")):
             data = np.array([r[k] for r in rows])
             dims = ("phase",) if dim is None else ("phase", dim)
@@ -79,7 +85,7 @@ def phase_norms(ds: xr.Dataset, scenario: Scenario | None = None) -> xr.Dataset:
                                     "vehicle": ds.vehicle.values})
     out["phase_start"] = ("phase", [p[1] for p in phases], {"units": "s"})
     out["phase_end"] = ("phase", [p[2] for p in phases], {"units": "s"})
-    out["samples"] = ("phase", [int(ds.time.sel(time=slice(a, b)).size) for _, a, b in phases])
+    out["samples"] = ("phase", [k - i for i, k in spans])
     return out
 
 

@@ -585,7 +585,9 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
 
 
 def warm_cases(sweep: Sweep, cases: list[Case], on_compile=None) -> float:
-    """Compile (or load) the kernels ``cases`` need; returns the seconds spent compiling.
+    """Compile the kernels ``cases`` need that are not in numba's on-disk cache yet;
+    returns the seconds spent compiling. Kernels already cached are not loaded here:
+    this process only hands the cases to the workers, which load them themselves.
 
     The kernel and its argument types depend on the solver (fixed-step or adaptive),
     not on the values, so one case of each kind stands for all."""
@@ -599,7 +601,7 @@ def warm_cases(sweep: Sweep, cases: list[Case], on_compile=None) -> float:
         calls = scenario_kernels(kinds.values())
     except LtdsimError:  # the case fails in its worker, with its own record
         return 0.0
-    return warm_up(calls, on_compile)
+    return warm_up(calls, on_compile, load=False)
 
 
 def _executor(scheduler, workers):

@@ -96,9 +96,13 @@ def gear_rig_kernel() -> KernelCall:
 
 
 def warm_up(calls: Iterable[KernelCall], tick: Tick | None = None,
-            interval: float = 1.0) -> float:
+            interval: float = 1.0, load: bool = True) -> float:
     """Compile (or load from the cache) every kernel of ``calls``; returns the seconds
     spent compiling (0 when everything was in the cache).
+
+    With ``load=False`` a kernel already in numba's on-disk cache is left there (for a
+    process that only hands the work to others, such as a sweep's: its workers load
+    the kernels themselves, and loading them here too only delays their start).
 
     ``tick(elapsed_s, done)`` reports a compile: once when it starts, every
     ``interval`` seconds while it runs (from a helper thread: the compile itself runs
@@ -107,7 +111,7 @@ def warm_up(calls: Iterable[KernelCall], tick: Tick | None = None,
     """
     calls = list(calls)
     todo = [c for c in calls if c.ready() is not True]
-    for c in calls:
+    for c in calls if load else ():
         if c not in todo:
             c()  # load from the cache now, so the first case does not
     if not todo:
