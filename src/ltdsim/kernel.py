@@ -260,15 +260,18 @@ STEPPER = np.dtype([("h", np.float64), ("accepted", np.int64), ("rejected", np.i
 #: the fluid brake's own bs23 stepping in :func:`run_adaptive` (one record, in
 #: :class:`Work`): start and end of the current pneumatic step s, the next step size s,
 #: error of the last accepted step (scaled), whether the last step was rejected, steps
-#: accepted and rejected, whether the stepping has started
+#: accepted and rejected, whether the stepping has started, start of the previous
+#: pneumatic step s (which ends at ``t0``; equal to ``t0`` when it is not kept)
 AIR_STEPPER = np.dtype([("t0", np.float64), ("t1", np.float64), ("h", np.float64),
                         ("last_error", np.float64), ("last_rejected", np.bool_),
                         ("accepted", np.int64), ("rejected", np.int64),
-                        ("started", np.bool_)])
+                        ("started", np.bool_), ("tp", np.float64)])
 #: rows of :class:`Work`'s ``air`` array: pneumatic states and rates at the start and end
-#: of the current pneumatic step, the pair's second and third stages, a stage state
-(AIR_Y0, AIR_Y1, AIR_F0, AIR_F1, AIR_K2, AIR_K3, AIR_YT) = range(7)
-N_AIR_ROWS = 7
+#: of the current pneumatic step, the pair's second and third stages, a stage state, the
+#: states and rates at the start of the previous pneumatic step (its end is the current
+#: one's start)
+(AIR_Y0, AIR_Y1, AIR_F0, AIR_F1, AIR_K2, AIR_K3, AIR_YT, AIR_YP, AIR_FP) = range(9)
+N_AIR_ROWS = 9
 
 
 class AirBrake(NamedTuple):
@@ -780,27 +783,35 @@ def _fluid_brakes(t, y, events, n_events, tr, dr, w, dy):
 
 @njit(cache=True, _nrt=False, forceinline=True)
 def _hermite_weights(t, st):
-    """Weights ``(h00, h10 H, h01, h11 H)`` of the cubic Hermite interpolant at ``t`` (s)
-    over the pneumatic step ``[t0, t1]`` of the ``AIR_STEPPER`` record ``st`` (``H = t1 -
-    t0``): the value at ``t`` is ``h00 y0 + h10 H f0 + h01 y1 + h11 H f1`` from the
-    states ``y`` and rates ``f`` at both ends (the dense output of the bs23 pair, third
-    order like its solution; weights of ``y0`` and ``y1`` sum to 1, so mass stays
-    conserved). ``t`` is clipped to the step."""
+    """Rows of :class:`Work`'s ``air`` array holding ``y0, f0, y1, f1`` and weights
+    ``(h00, h10 H, h01, h11 H)`` of the cubic Hermite interpolant at ``t`` (s) over the
+    pneumatic step that holds ``t``: the current one ``[t0, t1]`` of the ``AIR_STEPPER``
+    record ``st``, or the previous one ``[tp, t0]`` when ``t < t0`` and it is kept
+    (``H`` the step's length). The value at ``t`` is ``h00 y0 + h10 H f0 + h01 y1 + h11
+    H f1`` from the states ``y`` and rates ``f`` at both ends (the dense output of the
+    bs23 pair, third order like its solution; weights of ``y0`` and ``y1`` sum to 1, so
+    mass stays conserved). ``t`` is clipped to the step."""
     t0 = st["t0"]
-    big_h = st["t1"] - t0
+    t1 = st["t1"]
+    r0, r1, r2, r3 = AIR_Y0, AIR_F0, AIR_Y1, AIR_F1
+    if t < t0 and st["tp"] < t0:
+        t1 = t0
+        t0 = st["tp"]
+        r0, r1, r2, r3 = AIR_YP, AIR_FP, AIR_Y0, AIR_F0
+    big_h = t1 - t0
     if big_h <= 0.0:
-        return 1.0, 0.0, 0.0, 0.0
+        return r0, r1, r2, r3, 1.0, 0.0, 0.0, 0.0
     th = min(max((t - t0) / big_h, 0.0), 1.0)
     u = 1.0 - th
-    return ((1.0 + 2.0 * th) * u * u, th * u * u * big_h, th * th * (3.0 - 2.0 * th),
-            -th * th * u * big_h)
+    return (r0, r1, r2, r3, (1.0 + 2.0 * th) * u * u, th * u * u * big_h,
+            th * th * (3.0 - 2.0 * th), -th * th * u * big_h)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
 def _fluid_forces(t, y, tr, dr, w):
     """The fluid-dynamic air brake's forces at time ``t`` (s) for :func:`run_adaptive`,
     whose pneumatic states move on their own steps (:func:`_air_step`): each braked
-    vehicle's cylinder pressure interpolated in the current pneumatic step
+    vehicle's cylinder pressure interpolated in the pneumatic step that holds ``t``
     (:func:`_hermite_weights`), its braking force by :func:`_cylinder_brake` at its
     speed in ``y``."""
     veh = tr.veh
@@ -808,25 +819,23 @@ def _fluid_forces(t, y, tr, dr, w):
     vs = dr.par[D_BVS]
     atm = tr.air.gas[A_ATM]
     ab = w.air
-    a0, a1, a2, a3 = _hermite_weights(t, w.air_step[0])
+    r0, r1, r2, r3, a0, a1, a2, a3 = _hermite_weights(t, w.air_step[0])
     for i in range(n):
         zb = int(veh[i, V_BZ])
         if zb >= 0:
             q = zb + CV_CYL
-            pc = a0 * ab[AIR_Y0, q] + a1 * ab[AIR_F0, q] + a2 * ab[AIR_Y1, q] \
-                + a3 * ab[AIR_F1, q]
+            pc = a0 * ab[r0, q] + a1 * ab[r1, q] + a2 * ab[r2, q] + a3 * ab[r3, q]
             _cylinder_brake(i, pc - atm, y[n + i], tr, vs, w)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
 def _air_interpolate(t, tr, w, y):
-    """Every pneumatic state at ``t`` (s), interpolated in the current pneumatic step
-    (:func:`_hermite_weights`), written to its place in ``y`` (for the records)."""
+    """Every pneumatic state at ``t`` (s), interpolated in the pneumatic step that holds
+    it (:func:`_hermite_weights`), written to its place in ``y`` (for the records)."""
     ab = w.air
-    a0, a1, a2, a3 = _hermite_weights(t, w.air_step[0])
+    r0, r1, r2, r3, a0, a1, a2, a3 = _hermite_weights(t, w.air_step[0])
     for q in range(tr.air.index[I_PIPE], ab.shape[1]):
-        y[q] = a0 * ab[AIR_Y0, q] + a1 * ab[AIR_F0, q] + a2 * ab[AIR_Y1, q] \
-            + a3 * ab[AIR_F1, q]
+        y[q] = a0 * ab[r0, q] + a1 * ab[r1, q] + a2 * ab[r2, q] + a3 * ab[r3, q]
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -842,18 +851,28 @@ def _air_start(t, y, tr, w):
         ab[AIR_F1, q] = 0.0
     st["t0"] = t
     st["t1"] = t
+    st["tp"] = t
     st["started"] = True
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
 def _air_cut(t, events, n_events, tr, w):
-    """End the current pneumatic step at ``t`` (s), inside it or at its end, because a
-    brake command was issued at ``t`` (or the stepping starts there,
+    """End the pneumatic stepping at ``t`` (s), inside the current pneumatic step or at
+    its end, or inside the previous one (the next was taken ahead and is dropped),
+    because a brake command was issued at ``t`` (or the stepping starts there,
     :func:`_air_start`): the states at ``t`` interpolated, their rates evaluated with the
     commands issued so far (at the start, the same rates at both ends)."""
     ab = w.air
     st = w.air_step[0]
     z0 = tr.air.index[I_PIPE]
+    if t < st["t0"] and st["tp"] < st["t0"]:  # back to the previous step
+        for q in range(z0, ab.shape[1]):
+            ab[AIR_Y1, q] = ab[AIR_Y0, q]
+            ab[AIR_F1, q] = ab[AIR_F0, q]
+            ab[AIR_Y0, q] = ab[AIR_YP, q]
+            ab[AIR_F0, q] = ab[AIR_FP, q]
+        st["t1"] = st["t0"]
+        st["t0"] = st["tp"]
     _air_interpolate(t, tr, w, ab[AIR_YT])
     for q in range(z0, ab.shape[1]):
         ab[AIR_Y1, q] = ab[AIR_YT, q]
@@ -863,6 +882,7 @@ def _air_cut(t, events, n_events, tr, w):
             ab[AIR_Y0, q] = ab[AIR_Y1, q]
             ab[AIR_F0, q] = ab[AIR_F1, q]
     st["t1"] = t
+    st["tp"] = st["t0"]  # the steps after t are to be taken anew
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -895,9 +915,14 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
     atol = ad.atol
     rtol = ad.rtol
     t = st["t1"]
-    for q in range(z0, ny):
+    yp = ab[AIR_YP]
+    fp = ab[AIR_FP]
+    for q in range(z0, ny):  # the current step becomes the previous one
+        yp[q] = y0[q]
+        fp[q] = f0[q]
         y0[q] = y1[q]
         f0[q] = f1[q]
+    st["tp"] = st["t0"]
     st["t0"] = t
     h = st["h"]
     while True:
@@ -1560,9 +1585,11 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
 
     With the fluid brake (``w.air`` sized, see :func:`make_work`) the pneumatic states
     take their own steps under the same error control (:func:`_air_step`), as long as
-    their dynamics allow; the mechanical steps end no later than the pneumatic step they
-    lie in, read the cylinder pressures from its interpolant (:func:`rhs_split`), and
-    step and control the error of the mechanical states only. The pneumatic states in
+    their dynamics allow, one step ahead when a mechanical step would pass the end of
+    the current one: a mechanical step may span two pneumatic steps (it ends no later
+    than the second), reads the cylinder pressures from the interpolant of the one that
+    holds each stage's time (:func:`rhs_split`), and steps and controls the error of the
+    mechanical states only. The pneumatic states in
     ``y`` are brought up to date at every record.
 
     Returns ``(status, t)``: ``OK``; ``NONFINITE`` when no step size down to 1e-12 s
@@ -1627,17 +1654,6 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         if cut:
             _air_cut(t, ctl.events, n_ev, tr, w)
             cut = False
-        if split and t >= air_st["t1"] - eps and t < t_last - eps:
-            # the pneumatic step ends here: take the next one, to the next scheduled
-            # command at most
-            t_cap = t_last
-            k = st["next_scheduled"]
-            if k < m_sched and ctab[o_sched + k] > t + eps:
-                t_cap = min(t_cap, ctab[o_sched + k])
-            if not _air_step(t_cap, ctl.events, n_ev, tr, w, ad):
-                sp["h"] = h
-                sp["t"] = t
-                return NONFINITE, t
         if fresh:
             rhs_split(t, ym, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
             _track_peaks(force, peaks, n - 1, t)
@@ -1658,10 +1674,23 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         k = st["next_scheduled"]
         if k < m_sched:
             t_next = min(t_next, ctab[o_sched + k])
+        h_try = min(h, ad.h_max)
         if split:
+            if (min(t + h_try, t_next) > air_st["t1"] and t >= air_st["t0"]
+                    and t < t_last - eps):
+                # the step would pass the pneumatic step's end: take the next pneumatic
+                # step (to the next scheduled command at most), keeping the one the
+                # mechanical step starts in, so that the step need not end there
+                t_cap = t_last
+                k = st["next_scheduled"]
+                if k < m_sched and ctab[o_sched + k] > t + eps:
+                    t_cap = min(t_cap, ctab[o_sched + k])
+                if not _air_step(t_cap, ctl.events, n_ev, tr, w, ad):
+                    sp["h"] = h
+                    sp["t"] = t
+                    return NONFINITE, t
             t_next = min(t_next, air_st["t1"])
         hit = False
-        h_try = min(h, ad.h_max)
         if t + h_try >= t_next - eps:
             h_try = t_next - t
             hit = True

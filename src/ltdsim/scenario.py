@@ -107,8 +107,8 @@ class Solver(_Strict):
     air_max_step: float = Field(
         1.0, gt=0.0, le=100.0,
         description="bs23 with brake.model = \"fluid\": largest step of the brake's "
-                    "pneumatic states, which take their own error-controlled steps (the "
-                    "mechanical steps end where a pneumatic step ends), s")
+                    "pneumatic states, which take their own error-controlled steps (a "
+                    "mechanical step spans at most two of them), s")
     stability_check: bool = Field(
         True, description="refuse a fixed step above the method's largest stable step for "
                           "the train (ltdsim.stability); false runs it anyway (the run stops "
