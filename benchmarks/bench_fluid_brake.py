@@ -29,6 +29,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from _results import publish
 
 import ltdsim
@@ -169,9 +171,14 @@ def _publish(args, rounds, t_trip, uic, cpu, wall, ratios, last) -> dict:
     if brake_hh is not None:
         rows.append(("heavy-haul trip, fluid: first application (0.3 bar drop) end to end; "
                      "slope along the train (fit RMS)",
-                     f"{brake_hh['end_to_end_speed_m_s']:.0f} m/s at "
-                     f"{brake_hh['command_time_s']:.0f} s; {brake_hh['propagation_speed_m_s']:.0f}"
-                     f" m/s ({brake_hh['propagation_fit_rms_s']:.2f} s)"))
+                     (f"{brake_hh['end_to_end_speed_m_s']:.0f} m/s"
+                      if np.isfinite(brake_hh['end_to_end_speed_m_s']) else
+                      f"not reached (the pipe at vehicle {brake_hh['farthest_vehicle'] + 1}, "
+                      f"the farthest from a brake-control point, did not fall 0.3 bar before "
+                      f"the release; {brake_hh['vehicles_reached']} vehicles reached)")
+                     + f" at {brake_hh['command_time_s']:.0f} s; "
+                       f"{brake_hh['propagation_speed_m_s']:.0f} m/s "
+                       f"({brake_hh['propagation_fit_rms_s']:.2f} s)"))
     result = {"trip_s": t_trip, "rounds": rounds, "cpu_s": cpu, "wall_s": wall,
               "ratios": ratios, "ratio_median": ratio, "uic_realtime_factor": realtime,
               "uic_lumped_realtime_factor": uic.solver.t_end / med["uic_lumped"],
