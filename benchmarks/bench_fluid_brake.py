@@ -174,8 +174,8 @@ def _publish(args, rounds, t_trip, uic, cpu, wall, ratios, last) -> dict:
                      (f"{brake_hh['end_to_end_speed_m_s']:.0f} m/s"
                       if np.isfinite(brake_hh['end_to_end_speed_m_s']) else
                       f"not reached (the pipe at vehicle {brake_hh['farthest_vehicle'] + 1}, "
-                      f"the farthest from a brake-control point, did not fall 0.3 bar before "
-                      f"the release; {brake_hh['vehicles_reached']} vehicles reached)")
+                      f"the farthest from a brake-control point, did not fall 0.3 bar within "
+                      f"the application; {brake_hh['vehicles_reached']} vehicles reached)")
                      + f" at {brake_hh['command_time_s']:.0f} s; "
                        f"{brake_hh['propagation_speed_m_s']:.0f} m/s "
                        f"({brake_hh['propagation_fit_rms_s']:.2f} s)"))
