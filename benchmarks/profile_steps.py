@@ -42,10 +42,22 @@ HEAVY = HERE.parent / "scenarios" / "heavy-haul.toml"
 COLS = 5  # t, h_try, err, q, flags (1 accepted, 2 hit a target)
 
 
-def _profiling_kernel():
-    """``run_adaptive`` with a step log: the same source plus the log's writes."""
+def patched_run_adaptive(edits, name):
+    """``kernel.run_adaptive`` compiled from its own source with ``edits`` applied (pairs
+    of old and new text, each old text found exactly once); ``name`` is the function the
+    edited source defines."""
     src = inspect.getsource(kernel.run_adaptive.py_func)
     src = src[src.index("def run_adaptive"):]
+    for old, new in edits:
+        assert src.count(old) == 1, old
+        src = src.replace(old, new)
+    ns = dict(vars(kernel))
+    exec(compile(src, kernel.__file__, "exec"), ns)
+    return njit(_nrt=False)(ns[name])
+
+
+def _profiling_kernel():
+    """``run_adaptive`` with a step log: the same source plus the log's writes."""
     edits = [
         ("def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):",
          "def run_adaptive_prof(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out, "
@@ -62,12 +74,7 @@ def _profiling_kernel():
          "        count[0] += 1\n"
          "        if err <= 1.0:\n            t = t_new\n"),
     ]
-    for old, new in edits:
-        assert src.count(old) == 1, old
-        src = src.replace(old, new)
-    ns = dict(vars(kernel))
-    exec(compile(src, kernel.__file__, "exec"), ns)
-    return njit(_nrt=False)(ns["run_adaptive_prof"])
+    return patched_run_adaptive(edits, "run_adaptive_prof")
 
 
 def state_labels(sc) -> tuple[list[str], list[str]]:

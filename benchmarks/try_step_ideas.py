@@ -27,21 +27,18 @@ Usage: python benchmarks/try_step_ideas.py [--t-end 600] [--case emergency] [--r
 from __future__ import annotations
 
 import argparse
-import inspect
-import json
 import statistics
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from numba import njit
 
 import ltdsim
 from ltdsim import kernel
 
 from _results import publish
-from profile_steps import state_labels
+from profile_steps import patched_run_adaptive, state_labels
 
 HERE = Path(__file__).resolve().parent
 HEAVY = HERE.parent / "scenarios" / "heavy-haul.toml"
@@ -86,14 +83,7 @@ EDITS = [
 
 def cfg_kernel():
     """``run_adaptive`` with the controller's constants as an argument."""
-    src = inspect.getsource(kernel.run_adaptive.py_func)
-    src = src[src.index("def run_adaptive"):]
-    for old, new in EDITS:
-        assert src.count(old) == 1, old
-        src = src.replace(old, new)
-    ns = dict(vars(kernel))
-    exec(compile(src, kernel.__file__, "exec"), ns)
-    return njit(_nrt=False)(ns["run_adaptive_cfg"])
+    return patched_run_adaptive(EDITS, "run_adaptive_cfg")
 
 
 def variant_kernel(cfg, compiled):
