@@ -48,8 +48,7 @@ later step adds to them), so the next check finds them, and the error names the
 interval between the last good check and the failing one. :func:`_advance` writes the
 step's end out for three and four stages (ode3, rk4), one pass over the state. Couplers
 that all share the simplified model (``Couplers.uniform``) run a loop of their own, in
-which the compiler knows the model and drops the dispatch and the gear code; so do
-couplers that are all friction-wedge gears (drops the dispatch between the models). Each was
+which the compiler knows the model and drops the dispatch and the gear code. Each was
 kept because it cut the instructions per step of the force-mode base train
 (benchmarks/bench_reference_instructions.py, against the hand-written kernel of
 benchmarks/_reference_kernel.py) with every result bit unchanged; a branch-free or
@@ -81,7 +80,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ltdsim.coupler_models import M_SIMPLIFIED, M_WEDGE, P_D0, coupler_force
+from ltdsim.coupler_models import M_SIMPLIFIED, P_D0, coupler_force
 from ltdsim.layout import (
     DM_FADE,
     DM_GEAR_EFF,
@@ -1163,17 +1162,14 @@ def _couplers(y, tr, cp, w, dy):
     ``y``, written to ``w.force`` and ``w.defl``; the hysteretic gears' state rates go
     to ``dy`` (:func:`coupler_force`).
 
-    A train whose couplers all share the simplified model, or are all friction-wedge
-    gears (``cp.uniform``), runs a loop of its own, in which the compiler knows the
-    model and drops the dispatch; the arithmetic is the same."""
+    A train whose couplers all share the simplified model (``cp.uniform``) runs a loop
+    of its own, in which the compiler knows the model and drops the dispatch; the
+    arithmetic is the same."""
     cpl = cp.par
     ctab = tr.tables
     n = tr.veh.shape[0]
     u = cp.uniform
     if u == M_SIMPLIFIED:
-        for j in range(n - 1):
-            _coupler(j, u, y, n, cpl, ctab, w, dy)
-    elif u == M_WEDGE:
         for j in range(n - 1):
             _coupler(j, u, y, n, cpl, ctab, w, dy)
     else:
