@@ -149,6 +149,7 @@ def _vehicle_map(fig, ax, t, values, label, cmap, vmax=None):
                       vmax=top or 1.0, extent=(t[0] - dt / 2, t[-1] + dt / 2, n + 0.5, 0.5))
     fig.colorbar(image, ax=ax, label=label, pad=0.01)
     ax.set_ylabel("vehicle\n(1 = lead)")
+    ax.set_xlabel("time [s]")
     ax.yaxis.set_major_locator(plt.MaxNLocator(integer=True, nbins=min(n, 10)))
     ax.grid(False)
 
