@@ -421,7 +421,9 @@ def run(
 
 
 def _speed(v: float, digits: int = 1) -> str:
-    """A speed in m/s with km/h beside it."""
+    """A speed in m/s with km/h beside it (a speed that rounds to zero printed as 0, not
+    as -0)."""
+    v = v if round(v, digits) != 0.0 else 0.0
     return f"{v:.{digits}f} m/s ({3.6 * v:.{digits}f} km/h)"
 
 
