@@ -5,10 +5,12 @@ Runs, in one process:
   * the in-run reference: the base train (case LHHL's simplified couplers) driven in
     force mode by :data:`FORCE_PROFILE`, 270 s, ode3 at dt = 1e-4 s, coupler forces
     recorded every 1 ms, once by the whole ``ltdsim.simulate()`` (lowering, kernel, the
-    xarray result) and once by the plain hand-written numba kernel of
-    benchmarks/_reference_kernel.py; both compiled and warmed first, then in interleaved
-    rounds (the order alternating), CPU time of this process (``time.process_time``) and
-    wall time, medians; the coupler forces of the two are compared value by value;
+    xarray result) recording the coupler forces only (``solver.record``, as the
+    reference does), once by ``simulate()`` recording every variable, and once by the
+    plain hand-written numba kernel of benchmarks/_reference_kernel.py; all compiled
+    and warmed first, then in interleaved rounds (the order reversed every other round),
+    CPU time of this process (``time.process_time``) and wall time, medians; the coupler
+    forces are compared value by value;
   * ltdsim: the base scenario, case LHHL (speed mode), 270 s, after compilation, several
     times (median);
   * SciPy: the same model as a NumPy right-hand side (ltdsim.reference) under
@@ -73,31 +75,42 @@ def force_case(sc):
     return sc.with_overrides({"driver.mode": "force", "driver.force_profile": FORCE_PROFILE})
 
 
+def forces_only(sc):
+    """Scenario ``sc`` recording the coupler forces only (``solver.record``): the
+    reference kernel's recording, for a like-for-like comparison."""
+    return sc.with_overrides({"solver.record": ["coupler_force"]})
+
+
 def _clocks():
     return time.process_time(), time.perf_counter()
 
 
 def _against_reference(sc, rounds: int) -> dict:
-    """``simulate(sc)`` against the hand-written kernel: CPU and wall seconds of each,
-    ``rounds`` interleaved rounds after a warm-up of both, and the largest difference of
-    their coupler forces."""
-    ref_force = _reference_kernel.simulate(sc)  # compile (or load) and warm both
-    ds = ltdsim.simulate(sc)
+    """``simulate()`` of ``sc`` recording the coupler forces only (``simulate``, the
+    reference kernel's recording) and recording every variable (``simulate, all``)
+    against the hand-written kernel (``reference``): CPU and wall seconds of each,
+    ``rounds`` interleaved rounds after a warm-up of all three (the order reversed every
+    other round), and the largest difference of their coupler forces."""
+    ref_force = _reference_kernel.simulate(sc)  # compile (or load) and warm all three
+    ltdsim.simulate(sc)
+    ds = ltdsim.simulate(forces_only(sc))
     sim_force = ds.coupler_force.values
     if sim_force.shape != ref_force.shape:
         raise SystemExit(f"records differ: simulate {sim_force.shape}, reference "
                          f"{ref_force.shape}")
     diff = float(np.max(np.abs(sim_force - ref_force)))
-    runs = {"simulate": lambda: ltdsim.simulate(sc),
-            "reference": lambda: _reference_kernel.simulate(sc)}
+    runs = {"reference": lambda: _reference_kernel.simulate(sc),
+            "simulate": lambda: ltdsim.simulate(forces_only(sc)),
+            "simulate, all": lambda: ltdsim.simulate(sc)}
     times = {k: {"cpu": [], "wall": []} for k in runs}
     for r in range(rounds):
-        for name in (("reference", "simulate") if r % 2 == 0 else ("simulate", "reference")):
+        for name in (list(runs) if r % 2 == 0 else list(runs)[::-1]):
             c0, w0 = _clocks()
             runs[name]()
             c1, w1 = _clocks()
             times[name]["cpu"].append(c1 - c0)
             times[name]["wall"].append(w1 - w0)
+        print(f"reference round {r + 1}/{rounds} done", file=sys.stderr, flush=True)
     return {"max_force_difference_N": diff, "values_compared": int(sim_force.size),
             "max_abs_force_N": float(np.max(np.abs(ref_force))), "times": times}
 
@@ -213,6 +226,8 @@ def main(argv=None) -> dict:
     rt = ref["times"]
     med = {k: {c: statistics.median(v[c]) for c in ("cpu", "wall")} for k, v in rt.items()}
     per_round = [a / b for a, b in zip(rt["simulate"]["cpu"], rt["reference"]["cpu"])]
+    per_round_all = [a / b for a, b in zip(rt["simulate, all"]["cpu"],
+                                           rt["reference"]["cpu"])]
     n = sc.n_vehicles
     steps = sc.solver.n_steps
     t_sim = steps * sc.solver.dt
@@ -252,7 +267,8 @@ def main(argv=None) -> dict:
          f"{ref['max_abs_force_N'] / 1e3:.0f} kN)", f"{ref['max_force_difference_N']:.3g}"),
         ("force-mode case: reference kernel, CPU s (wall s)",
          f"{med['reference']['cpu']:.3f} ({med['reference']['wall']:.3f})"),
-        ("force-mode case: whole simulate(), CPU s (wall s)",
+        ("force-mode case: whole simulate(), recording the coupler forces only "
+         "(solver.record), CPU s (wall s)",
          f"{med['simulate']['cpu']:.3f} ({med['simulate']['wall']:.3f})"),
         (f"ratio simulate() / reference kernel, CPU, median of the {args.rounds} rounds' "
          "ratios (target <= 1.0)", f"{statistics.median(per_round):.3f}"),
@@ -260,6 +276,10 @@ def main(argv=None) -> dict:
          f"{med['simulate']['cpu'] / med['reference']['cpu']:.3f}"),
         ("ratio simulate() / reference kernel, wall, of the medians",
          f"{med['simulate']['wall'] / med['reference']['wall']:.3f}"),
+        ("force-mode case: whole simulate() recording every variable, CPU s (wall s)",
+         f"{med['simulate, all']['cpu']:.3f} ({med['simulate, all']['wall']:.3f})"),
+        (f"ratio simulate(), every variable / reference kernel, CPU, median of the "
+         f"{args.rounds} rounds' ratios", f"{statistics.median(per_round_all):.3f}"),
         ("ltdsim: CPU seconds per case (270 s, dt 1e-4, ode3, all outputs)", f"{cpu:.3f}"),
         ("ltdsim: seconds per case (270 s, dt 1e-4, ode3, all outputs), wall", f"{wall:.3f}"),
         ("ltdsim: seconds for the first case in a fresh process", f"{cold_walls[0]:.3f}"),
@@ -326,7 +346,9 @@ def main(argv=None) -> dict:
                        "ratio_cpu": statistics.median(per_round),
                        "ratio_cpu_of_medians": med["simulate"]["cpu"] / med["reference"]["cpu"],
                        "ratio_wall": med["simulate"]["wall"] / med["reference"]["wall"],
-                       "ratio_cpu_per_round": per_round},
+                       "ratio_cpu_per_round": per_round,
+                       "ratio_cpu_all_variables": statistics.median(per_round_all),
+                       "ratio_cpu_all_variables_per_round": per_round_all},
         "drive_case": {"cpu_s": drv, "ratio_cpu": statistics.median(drv["round ratios"]),
                        "ratio_cpu_of_medians": dd / dc},
         "baseline": None if base is None else {"revision": args.baseline, "cpu_s": base},

@@ -293,6 +293,22 @@ def test_a_coupler_never_in_compression_shows_dashes_and_its_closed_form_tension
     no_coupler_zero(res.output)
 
 
+def test_a_run_recording_only_the_coupler_forces_prints_the_same_closed_form_tension(tmp_path):
+    # solver.record: the table comes from the peaks over every step, as in a full run;
+    # what needs an unrecorded variable is left out, and --plot is refused before the run
+    scenario = write(tmp_path, PULL)
+    res = invoke("run", scenario, "-q", "--set", 'solver.record=["coupler_force"]')
+    assert res.exit_code == 0, res.output
+    row = next(line for line in res.stdout.splitlines() if re.match(r"^\W*1\W", line))
+    cells = [c.strip() for c in re.split(r"[│|]", row) if c.strip()]
+    assert_allclose(float(cells[1]), 2 * F * M2 / (M1 + M2) / 1e3, atol=0.06)  # kN
+    assert "top speed" not in res.output and "RMS speed error" not in res.output
+    bad = invoke("run", scenario, "--set", 'solver.record=["coupler_force"]', "--plot",
+                 str(tmp_path / "f.png"))
+    assert bad.exit_code == 2 and "solver.record" in bad.stderr and "--plot" in bad.stderr
+    assert not (tmp_path / "f.png").exists()
+
+
 def test_a_case_name_shows_in_brackets_without_a_backslash(tmp_path):
     res = invoke("run", write(tmp_path, PULL), "--case", "emergency")
     assert res.exit_code == 0, res.output

@@ -124,6 +124,8 @@ HH = (ROOT / "scenarios" / "heavy-haul.toml").read_text()
     ("brake_controller = true", "brake_controller = true\nnotch_profile = [[0.0, 2.5]]",
      "driver.notch_profile", "whole notches in [-8, 8]"),
     ("method = \"bs23\"", "method = \"bs45\"", "solver.method", "bs23"),
+    ("method = \"bs23\"", "method = \"bs23\"\nrecord = [\"forces\"]", "solver.record",
+     "'coupler_force'"),
     ("name = \"lead\"\nvehicles = [0, 1]", "name = \"lead\"\nvehicles = [0, 1]\n"
      "notch_profile = [[0.0, 4.0]]", "locomotives.0.notch_profile", "follows [driver]"),
 ])
@@ -755,7 +757,7 @@ def test_t_end_1e7_is_refused_before_anything_is_allocated(tmp_path, method):
 
 
 def test_a_memory_error_while_allocating_is_one_line_failure(monkeypatch):
-    def no_memory(low, n):
+    def no_memory(low, n, keep=None):
         raise MemoryError
     monkeypatch.setattr(SIM, "_buffers", no_memory)
     with pytest.raises(SimulationError, match="solver.output_interval"):
@@ -1015,3 +1017,9 @@ def test_a_write_that_fails_after_the_run_is_one_line_exit_3(tmp_path, monkeypat
     monkeypatch.setattr(sys.modules["ltdsim.io"], "save_result", disk_full)
     path = write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 0.5"))
     refused(["run", path, "-q", "-o", tmp_path / "r.nc"], "r.nc", "No space left", code=3)
+
+
+def test_curving_indicators_need_the_positions_and_forces_recorded():
+    sc = ltdsim.load_scenario(ROOT / "scenarios" / "heavy-haul-s-curve.toml")
+    with pytest.raises(ScenarioError, match=r"solver\.record.*\[curving\].*position"):
+        sc.with_overrides({"solver.record": ["coupler_force"]})

@@ -344,6 +344,11 @@ def run(
         sc = load_scenario(file, case=case)
         if set_:
             sc = sc.with_overrides(parse_set(set_), source="--set")
+        if sc.solver.record is not None and (plot is not None or report is not None):
+            raise ScenarioError(str(file), [(
+                "solver.record", f"{'--plot' if plot is not None else '--report'} draws "
+                "from the whole recording; leave solver.record out (it records only "
+                f"{', '.join(sc.solver.record) or 'the train signals'})")])
         brake_plot = brake_figure_path(plot) if plot is not None and _fluid(sc) else None
         if brake_plot is not None:
             _check_output(brake_plot, "--plot (the brake-pressure figure beside it)",
@@ -440,6 +445,8 @@ def _print_motion(ds) -> None:
     stopping distance and time (ltdsim.summary.stopping)."""
     from ltdsim.summary import speeds, stopping
 
+    if "velocity" not in ds:  # not recorded (solver.record)
+        return
     v = speeds(ds)
     _say(f"lead vehicle: top speed {_speed(v['max_speed_m_s'])}, final speed "
          f"{_speed(v['final_speed_m_s'])}")

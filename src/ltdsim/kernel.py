@@ -1760,38 +1760,47 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
     """Write record ``r`` at time ``t`` (s) of state ``y`` to ``out``: positions,
     speeds, the accelerations ``dy[n:2n]`` (stage 1 at ``(t, y)``), coupler
     deflections and forces, brakes and consist forces from ``w``, the scalar signals
-    with the held demand ``a_dem`` (m/s^2) and the last brake level (0-1)."""
+    with the held demand ``a_dem`` (m/s^2) and the last brake level (0-1). A record
+    array of width 0 is one the run does not record (``solver.record``)."""
     veh = tr.veh
     cons = tr.cons
     trac = tr.trac
     out_s = out.s
-    n = out.x.shape[1]
-    for i in range(n):
+    n = veh.shape[0]
+    for i in range(out.x.shape[1]):
         out.x[r, i] = y[i] + veh[i, V_P0]  # track position
+    for i in range(out.v.shape[1]):
         out.v[r, i] = y[n + i]
+    for i in range(out.a.shape[1]):
         out.a[r, i] = dy[n + i]  # stage-1 derivatives sit at offset 0
-    for j in range(n - 1):
+    for j in range(out.d.shape[1]):
         out.d[r, j] = w.defl[j]
+    for j in range(out.f.shape[1]):
         out.f[r, j] = w.force[j]
-    if out.b.shape[1] > 0:
-        for i in range(n):
+    fluid = w.inflow.shape[0] > 0  # the fluid brake's pipe cells
+    for i in range(out.b.shape[1]):
+        out.b[r, i] = w.bforce[i] if veh[i, V_BZ] >= 0 else 0.0
+    if not fluid:
+        for i in range(out.p.shape[1]):
             zb = int(veh[i, V_BZ])
-            out.b[r, i] = w.bforce[i] if zb >= 0 else 0.0
             out.p[r, i] = y[zb] if zb >= 0 else 0.0
-    if out.bp.shape[1] > 0:  # the fluid brake
+    else:
         atm = tr.air.gas[A_ATM]
         zp = tr.air.index[I_PIPE]
+        for i in range(out.bp.shape[1]):
+            out.bp[r, i] = y[zp + int(veh[i, V_BCELL])] - atm
         for i in range(n):
             zb = int(veh[i, V_BZ])
-            out.bp[r, i] = y[zp + int(veh[i, V_BCELL])] - atm
-            if zb >= 0:
-                out.ar[r, i] = y[zb + CV_AUX] - atm
-                out.bc[r, i] = y[zb + CV_CYL] - atm
-                out.p[r, i] = out.bc[r, i] / veh[i, V_BPFS]
-            else:
-                out.ar[r, i] = np.nan
-                out.bc[r, i] = np.nan
-        out.ax[r, 0] = y[tr.air.index[I_EXH]]
+            aux = y[zb + CV_AUX] - atm if zb >= 0 else np.nan
+            cyl = y[zb + CV_CYL] - atm if zb >= 0 else np.nan
+            if out.ar.shape[1] > 0:
+                out.ar[r, i] = aux
+            if out.bc.shape[1] > 0:
+                out.bc[r, i] = cyl
+            if out.p.shape[1] > 0:
+                out.p[r, i] = cyl / veh[i, V_BPFS] if zb >= 0 else 0.0
+        if out.ax.shape[1] > 0:
+            out.ax[r, 0] = y[tr.air.index[I_EXH]]
     if out.c.shape[1] > 0:
         for c in range(cons.shape[0]):
             out.c[r, c] = w.fcons[c]

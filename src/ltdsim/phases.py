@@ -61,7 +61,8 @@ def phase_norms(ds: xr.Dataset, scenario: Scenario | None = None) -> xr.Dataset:
 
     Returns a dataset over ``phase`` (and ``coupler`` / ``vehicle``) with
     ``coupler_force_{2norm,infnorm,rms}`` (N), ``acceleration_{...}`` (m/s^2, every
-    vehicle), ``traction_force_{...}`` (N) and ``speed_error_{...}`` (m/s).
+    vehicle), ``traction_force_{...}`` (N) and ``speed_error_{...}`` (m/s); a variable
+    the run did not record (``solver.record``) is left out.
     """
     phases = phases_of(ds, scenario)
     if not phases:
@@ -75,6 +76,8 @@ def phase_norms(ds: xr.Dataset, scenario: Scenario | None = None) -> xr.Dataset:
     parts = {}
     for var, dim in (("coupler_force", "coupler"), ("acceleration", "vehicle"),
                      ("traction_force", None), ("speed_error", None)):
+        if var not in ds:  # not recorded (solver.record)
+            continue
         values = ds[var].values
         rows = [_norms(values[i:k]) for i, k in spans]
         for k, kind in enumerate(("2norm", "infnorm", "rms")):

@@ -38,6 +38,7 @@ from pydantic import (
 
 from ltdsim.creep_schema import Creep, wheelset_row
 from ltdsim.errors import ScenarioError, _printable
+from ltdsim.layout import DRIVE_SIGNALS
 
 # Physical sanity bounds used in validation (documented in docs/scenario.md).
 MAX_MASS = 1.0e6  # kg, one vehicle
@@ -77,6 +78,13 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
     return points
 
 
+#: result variables a run can leave out of its recording (``solver.record``)
+RECORDABLE = ("position", "velocity", "acceleration", "coupler_deflection", "coupler_force",
+              "brake_force", "brake_cylinder", "locomotive_force", "brake_pipe_pressure",
+              "auxiliary_reservoir_pressure", "brake_cylinder_pressure", "air_exhausted",
+              *DRIVE_SIGNALS)
+
+
 class Solver(_Strict):
     """Integration settings."""
 
@@ -91,6 +99,14 @@ class Solver(_Strict):
     output_interval: float = Field(
         1e-3, gt=0.0, description="spacing of the recorded samples: a whole multiple of dt, "
                                   "at most t_end, s")
+    record: Optional[list[Literal[RECORDABLE]]] = Field(  # type: ignore[valid-type]
+        None, description="the time series to record, by result-variable name; left out, "
+                          "every one. Always kept: the train's signals (traction_force, "
+                          "speed_reference, ...) and the peak coupler forces over every "
+                          "step. relative_position comes with position, relative_velocity "
+                          "and speed_error with velocity; naming one induction-drive "
+                          "signal records all of them. A selection saves memory and time "
+                          "when only some results matter (many cases)")
     # adaptive Bogacki-Shampine 3(2) (method = "bs23")
     rtol: float = Field(1e-5, gt=0.0, le=0.1,
                         description="bs23: relative tolerance (not applied to positions, "
@@ -1367,6 +1383,12 @@ class Scenario(_Strict):
             raise ValueError(f"initial.velocities has {len(vel)} values for {n} vehicles")
         self._check_locomotives(n)
         if self.curving is not None:
+            missing = [k for k in ("position", "velocity", "coupler_force")
+                       if self.solver.record is not None and k not in self.solver.record]
+            if missing:
+                raise ValueError(f"solver.record: [curving] is computed from "
+                                 f"{', '.join(missing)}; add them to solver.record or leave "
+                                 "it out")
             for i, v in enumerate(self.vehicles):
                 problem = v.geometry_problem()
                 if problem:

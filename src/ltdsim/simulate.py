@@ -111,6 +111,28 @@ DESCRIPTIONS = {
 
 ProgressFn = Callable[[float, float], None]
 
+#: the kernel's record arrays and the result variables each one gives; ``solver.record``
+#: names variables, and an array is recorded when one of its variables is named
+#: (``relative_position`` comes with ``position``; ``relative_velocity`` and
+#: ``speed_error`` with ``velocity``; the drive's signals are recorded together)
+RECORD_ARRAYS = {
+    "x": ("position",), "v": ("velocity",), "a": ("acceleration",),
+    "d": ("coupler_deflection",), "f": ("coupler_force",),
+    "b": ("brake_force",), "p": ("brake_cylinder",), "c": ("locomotive_force",),
+    "bp": ("brake_pipe_pressure",), "ar": ("auxiliary_reservoir_pressure",),
+    "bc": ("brake_cylinder_pressure",), "ax": ("air_exhausted",),
+    "m": DRIVE_SIGNALS,
+}
+
+
+def recorded(scenario: Scenario) -> frozenset[str]:
+    """The kernel's record arrays (:data:`RECORD_ARRAYS` keys) a run of ``scenario``
+    fills: all of them unless ``solver.record`` names a selection."""
+    names = scenario.solver.record
+    if names is None:
+        return frozenset(RECORD_ARRAYS)
+    return frozenset(k for k, vs in RECORD_ARRAYS.items() if set(vs) & set(names))
+
 #: share of the memory available when a run starts (``MemAvailable`` in /proc/meminfo)
 #: that one run's recording may take; a longer recording is refused before anything is
 #: allocated (see :func:`check_memory`)
@@ -134,14 +156,19 @@ def recording_bytes(scenario: Scenario) -> int:
     n_samples = sv.n_steps // sv.record_every + 1
     nd = sum((loco.drive or scenario.traction.drive) == "induction"
              for loco in scenario.consists())
-    per_sample = (3 * n + 2 * nc + kernel.N_SCALARS + 2 * nb + (nk if nk > 1 else 0)
-                  + 2 * n + 2 + 2 * nd * N_DRIVE_SIGNALS)
+    keep = recorded(scenario)
+    per_sample = (n * (("x" in keep) + ("v" in keep) + ("a" in keep))
+                  + nc * (("d" in keep) + ("f" in keep)) + kernel.N_SCALARS
+                  + nb * (("b" in keep) + ("p" in keep))
+                  + (nk if nk > 1 and "c" in keep else 0)
+                  + n * (("x" in keep) + ("v" in keep)) + 2
+                  + (2 * nd * N_DRIVE_SIGNALS if "m" in keep else 0))
     ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
     cells = 0
     if scenario.brake.model == "fluid":
         # pipe, auxiliary reservoir and cylinder pressure per vehicle, exhausted air;
         # the pipe's cells and faces, every valve's states, the pipe's work array
-        per_sample += 3 * n + 1
+        per_sample += n * (("bp" in keep) + ("ar" in keep) + ("bc" in keep)) + ("ax" in keep)
         cells = n * scenario.brake.fluid.cells_per_vehicle
         ny += 2 * cells + braked * kernel.N_CV + nk * kernel.N_DV + 1
     stages = 4 if sv.adaptive else get_tableau(sv.method).stages
@@ -250,24 +277,30 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
     return _dataset(scenario, low, rec, wall, compile_time=t1 - t0)
 
 
-def _buffers(low: Lowered, n_rec: int):
+def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_ARRAYS)):
     """Records, state, controller, bs23 step state, step grid and the kernels' common
     argument tail (train, couplers, driver, work, outputs) for a run of ``low`` with
-    ``n_rec`` records."""
+    ``n_rec`` records of the record arrays ``keep`` (the others get width 0: the kernel
+    skips them)."""
     n = low.n
     nc = max(n - 1, 0)
     nk = low.cons.shape[0]
     nb = n if low.braked else 0
     nf = n if low.fluid else 0
+
+    def cols(key: str, width: int) -> int:
+        return width if key in keep else 0
+
     rec = {
-        "x": np.empty((n_rec, n)), "v": np.empty((n_rec, n)), "a": np.empty((n_rec, n)),
-        "d": np.empty((n_rec, nc)), "f": np.empty((n_rec, nc)),
+        "x": np.empty((n_rec, cols("x", n))), "v": np.empty((n_rec, cols("v", n))),
+        "a": np.empty((n_rec, cols("a", n))),
+        "d": np.empty((n_rec, cols("d", nc))), "f": np.empty((n_rec, cols("f", nc))),
         "s": np.empty((n_rec, kernel.N_SCALARS)),
-        "b": np.zeros((n_rec, nb)), "p": np.zeros((n_rec, nb)),
-        "c": np.zeros((n_rec, nk if nk > 1 else 0)),
-        "bp": np.zeros((n_rec, nf)), "ar": np.zeros((n_rec, nf)), "bc": np.zeros((n_rec, nf)),
-        "ax": np.zeros((n_rec, 1 if nf else 0)),
-        "m": np.zeros((n_rec, low.drive_z.size, N_DRIVE_SIGNALS)),
+        "b": np.zeros((n_rec, cols("b", nb))), "p": np.zeros((n_rec, cols("p", nb))),
+        "c": np.zeros((n_rec, cols("c", nk if nk > 1 else 0))),
+        "bp": np.zeros((n_rec, cols("bp", nf))), "ar": np.zeros((n_rec, cols("ar", nf))),
+        "bc": np.zeros((n_rec, cols("bc", nf))), "ax": np.zeros((n_rec, cols("ax", 1 if nf else 0))),
+        "m": np.zeros((n_rec, cols("m", low.drive_z.size), N_DRIVE_SIGNALS)),
         "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
         "events": np.zeros((MAX_EVENTS, N_EVENT_COLUMNS)),
     }
@@ -307,7 +340,7 @@ def _integrate(low: Lowered, scenario: Scenario, progress, chunks):
     """Run the kernel over the whole scenario."""
     n_rec_total = low.n_steps // low.record_every + 1
     try:
-        rec, y, ctl, stepper, grid, common = _buffers(low, n_rec_total)
+        rec, y, ctl, stepper, grid, common = _buffers(low, n_rec_total, recorded(scenario))
     except MemoryError:  # the memory went to other work since check_memory looked
         raise SimulationError(
             f"not enough memory for the recording ({n_rec_total:,} samples, about "
@@ -383,7 +416,8 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) 
 def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
              compile_time: float) -> xr.Dataset:
     n = low.n
-    n_rec = rec["x"].shape[0]
+    n_rec = rec["s"].shape[0]
+    keep = recorded(scenario)
     time = np.arange(n_rec) * (low.record_every * low.dt)
     p0 = low.p0
     position = rec["x"]  # the kernel records track positions
@@ -392,21 +426,32 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
     s = rec["s"]
     vdims = ("time", "vehicle")
     cdims = ("time", "coupler")
-    data = {
-        "position": (vdims, position),
-        "velocity": (vdims, vel),
-        "acceleration": (vdims, rec["a"]),
-        "relative_position": (vdims, position - position[:, :1] - (p0 - p0[0])),
-        "relative_velocity": (vdims, vel - vel[:, :1]),
-        "coupler_deflection": (cdims, rec["d"]),
-        "coupler_force": (cdims, rec["f"]),
+    data = {}
+    if "x" in keep:
+        data["position"] = (vdims, position)
+    if "v" in keep:
+        data["velocity"] = (vdims, vel)
+    if "a" in keep:
+        data["acceleration"] = (vdims, rec["a"])
+    if "x" in keep:
+        data["relative_position"] = (vdims, position - position[:, :1] - (p0 - p0[0]))
+    if "v" in keep:
+        data["relative_velocity"] = (vdims, vel - vel[:, :1])
+    if "d" in keep:
+        data["coupler_deflection"] = (cdims, rec["d"])
+    if "f" in keep:
+        data["coupler_force"] = (cdims, rec["f"])
+    data.update({
         "traction_force": ("time", s[:, kernel.S_TRACTION]),
         "speed_reference": ("time", s[:, kernel.S_VREF]),
-        "speed_error": ("time", s[:, kernel.S_VREF] - vel[:, ref]),
+    })
+    if "v" in keep:
+        data["speed_error"] = ("time", s[:, kernel.S_VREF] - vel[:, ref])
+    data.update({
         "adhesion_limit": ("time", s[:, kernel.S_ADHESION]),
         "demanded_acceleration": ("time", s[:, kernel.S_ADEM]),
         "traction_demand": ("time", s[:, kernel.S_DEMAND]),
-    }
+    })
     coords = {
         "time": ("time", time),
         "vehicle": ("vehicle", np.arange(n)),
@@ -421,20 +466,23 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
                       (kernel.PK_TMAX, "time_max_coupler_force"),
                       (kernel.PK_TMIN, "time_min_coupler_force")):
         data[name] = ("coupler", rec["peaks"][:, col] if nc else np.zeros(0))
-    if rec["b"].shape[1]:
+    if low.braked:
         data["brake_command"] = ("time", s[:, kernel.S_BRAKE])
-        data["brake_force"] = (vdims, rec["b"])
-        data["brake_cylinder"] = (vdims, rec["p"])
-    if rec["bp"].shape[1]:
-        data["brake_pipe_pressure"] = (vdims, rec["bp"])
-        data["auxiliary_reservoir_pressure"] = (vdims, rec["ar"])
-        data["brake_cylinder_pressure"] = (vdims, rec["bc"])
-        data["air_exhausted"] = ("time", rec["ax"][:, 0])
+        for key, name in (("b", "brake_force"), ("p", "brake_cylinder")):
+            if key in keep:
+                data[name] = (vdims, rec[key])
+    if low.fluid:
+        for key, name in (("bp", "brake_pipe_pressure"), ("ar", "auxiliary_reservoir_pressure"),
+                          ("bc", "brake_cylinder_pressure")):
+            if key in keep:
+                data[name] = (vdims, rec[key])
+        if "ax" in keep:
+            data["air_exhausted"] = ("time", rec["ax"][:, 0])
     if rec["c"].shape[1]:
         data["locomotive_force"] = (("time", "locomotive"), rec["c"])
-    if rec["c"].shape[1] or low.drive_z.size:
+    if rec["c"].shape[1] or (low.drive_z.size and "m" in keep):
         coords["locomotive"] = ("locomotive", [c.name for c in scenario.consists()])
-    if low.drive_z.size:
+    if low.drive_z.size and "m" in keep:
         # per consist (NaN for one on the traction curve); per motor or per locomotive
         # as DESCRIPTIONS says
         for q, name in enumerate(DRIVE_SIGNALS):

@@ -17,11 +17,11 @@ def coupler_summary(ds: xr.Dataset) -> pd.DataFrame:
     """Per coupler: largest tension and compression (N) and when they occur (s). The
     peaks are taken over every integration step where the result tracks them
     (``max_coupler_force`` etc.), else over the recorded samples."""
-    f = ds.coupler_force
     if "time_max_coupler_force" in ds:
         top, low = ds.max_coupler_force.values, ds.min_coupler_force.values
         t_top, t_low = ds.time_max_coupler_force.values, ds.time_min_coupler_force.values
     else:  # a result written before the kernel tracked peaks
+        f = ds.coupler_force
         t = ds.time.values
         top, low = f.max("time").values, f.min("time").values
         t_top, t_low = t[f.argmax("time").values], t[f.argmin("time").values]
@@ -47,18 +47,21 @@ def run_summary(ds: xr.Dataset) -> dict[str, float]:
     """Scalar facts of a run: RMS and max speed error (m/s), max |acceleration| (m/s^2),
     peak traction (N), whether traction ever exceeded adhesion, the largest gear
     deflection beyond the slack (m) and how many couplers exceed their travel (or the
-    reference travel, :func:`gear_travel_check`)."""
-    err = ds.speed_error.values
+    reference travel, :func:`gear_travel_check`). What a run did not record
+    (``solver.record``) is NaN, or left out for the gears."""
+    err = ds.speed_error.values if "speed_error" in ds else np.zeros(0)
     finite = np.isfinite(err)
     gears = {}
-    if "scenario_json" in ds.attrs and ds.sizes.get("coupler", 0):
+    if ("scenario_json" in ds.attrs and ds.sizes.get("coupler", 0)
+            and "coupler_deflection" in ds):
         table = gear_travel_check(ds)
         gears = {"max_gear_deflection_m": float(table.max_deflection_m.max()),
                  "couplers_beyond_travel": int(table.exceeds.sum())}
     return {
         "rms_speed_error_m_s": float(np.sqrt(np.mean(err[finite] ** 2))) if finite.any() else float("nan"),
         "max_speed_error_m_s": float(np.max(np.abs(err[finite]))) if finite.any() else float("nan"),
-        "max_abs_acceleration_m_s2": float(np.abs(ds.acceleration.values).max()),
+        "max_abs_acceleration_m_s2": float(np.abs(ds.acceleration.values).max())
+        if "acceleration" in ds else float("nan"),
         "max_traction_N": float(ds.traction_force.max()),
         "max_brake_N": float(max(-ds.traction_force.min().item(), 0.0)),
         "max_air_brake_N": float(ds.brake_force.sum("vehicle").max()) if "brake_force" in ds
@@ -95,6 +98,8 @@ def stopping(ds: xr.Dataset, stop_speed: float = STOP_SPEED) -> dict[str, float]
         ``stopping_distance_m`` (the lead vehicle's travel from the brake application to
         the stop).
     """
+    if "velocity" not in ds or "position" not in ds:  # not recorded (solver.record)
+        return None
     t = ds.time.values
     v = ds.velocity.values[:, 0]
     x = ds.position.values[:, 0]
@@ -184,7 +189,9 @@ def travel_warning(ds: xr.Dataset, scenario=None,
                    reference_travel: float = REFERENCE_TRAVEL) -> str | None:
     """One line naming the couplers (counted from 1, coupler 1 behind the lead vehicle)
     whose gears deflected beyond their travel (see :func:`gear_travel_check`) and by how
-    much, mm; None when none did."""
+    much, mm; None when none did (or the run did not record coupler_deflection)."""
+    if "coupler_deflection" not in ds:
+        return None
     table = gear_travel_check(ds, scenario, reference_travel)
     over = table[table.exceeds]
     if over.empty:
@@ -444,7 +451,7 @@ def fluid_brake_summary(ds: xr.Dataset, threshold: float = PIPE_DROP,
         ``slowest_cylinder_settled``, ``arrival_s`` and ``cylinder_95_s`` (arrays over
         vehicles, NaN where not reached or not braked), ``distance_m`` (array).
     """
-    if "brake_pipe_pressure" not in ds or "brake_cylinder_pressure" not in ds:
+    if any(k not in ds for k in ("brake_pipe_pressure", "brake_cylinder_pressure", "position")):
         return None
     t = ds.time.values
     if t.size < 2:
