@@ -12,8 +12,8 @@ for this one case, to measure what ltdsim's general engine costs on top of it.
 It reads the validated :class:`ltdsim.scenario.Scenario` directly (not ltdsim's lowered
 tables) and calls the same compiled force laws as ltdsim's kernel
 (:func:`ltdsim.physics.couplers.simplified_force`,
-:func:`ltdsim.physics.resistance.davis_force`, ``grade_resistance``,
-``curve_resistance``, :func:`ltdsim.physics.traction.traction_limit`), so that its
+:func:`ltdsim.physics.resistance.davis_force`, ``grade_force``,
+``curve_force``, :func:`ltdsim.physics.traction.traction_max`), so that its
 coupler forces agree with ltdsim's to round-off: a check that the two simulate the same
 train. The stepping, the force balance, the track and profile look-ups and the
 recording are written out here.
@@ -30,11 +30,11 @@ import ltdsim  # noqa: F401  (sets numba's cache folder before anything compiles
 from ltdsim.physics.couplers import simplified_force
 from ltdsim.physics.resistance import (
     PURE_SIGN,
-    curve_resistance,
+    curve_force,
     davis_force,
-    grade_resistance,
+    grade_force,
 )
-from ltdsim.physics.traction import traction_limit
+from ltdsim.physics.traction import traction_max
 
 # ode3 (Bogacki-Shampine 3(2), its third-order solution; Simulink's ode3)
 _A21 = 0.5
@@ -166,7 +166,7 @@ def run(y, dt, n_steps, record_every, inv_m, weight_mass, davis_a, davis_b, davi
                 wt = (t - prof_t[kp]) / (prof_t[kp + 1] - prof_t[kp])
                 demand = prof_f[kp] + wt * (prof_f[kp + 1] - prof_f[kp])
             v_loco = ys[n + loco]
-            lim = traction_limit(v_loco, max_force, max_power, adhesion_mass, g)
+            lim = traction_max(v_loco, max_force, max_power, adhesion_mass, g)
             traction = min(max(demand, -lim), lim)
             if traction < 0.0 and fade > 0.0:  # dynamic braking fades at low speed
                 traction *= min(max(v_loco / fade, 0.0), 1.0)
@@ -182,8 +182,8 @@ def run(y, dt, n_steps, record_every, inv_m, weight_mass, davis_a, davis_b, davi
                 kg[i] = _lookup(grade_x, x, kg[i])
                 kc[i] = _lookup(curve_x, x, kc[i])
                 res = davis_force(v, davis_a[i], davis_b[i], davis_c[i], davis_inv_v0[i])
-                res += grade_resistance(weight_mass[i], grade[kg[i]], g)
-                res += curve_resistance(v, weight_mass[i], curvature[kc[i]], curve_h, g)
+                res += grade_force(weight_mass[i], grade[kg[i]], g)
+                res += curve_force(v, weight_mass[i], curvature[kc[i]], curve_h, g)
                 f = (traction if i == loco else 0.0) - res
                 if i < n - 1:
                     f -= force[i]

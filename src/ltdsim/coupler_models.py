@@ -33,7 +33,7 @@ import numpy as np
 from numba import njit
 
 from ltdsim.layout import layout
-from ltdsim.physics.couplers import coupler_linear, gear_deflection, simplified_force
+from ltdsim.physics.couplers import gear_deflection, linear_force, simplified_force
 from ltdsim.physics.draftgear import (
     gear_force,
     plate_rate,
@@ -185,7 +185,7 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
                                 cpl[j, SIM_K3], cpl[j, SIM_IVC], cpl[j, P_TRAVEL],
                                 cpl[j, P_KSOLID])
     if model == M_LINEAR:
-        return coupler_linear(d, dd, cpl[j, P_SLACK], cpl[j, LIN_STIFF], cpl[j, LIN_DAMP],
+        return linear_force(d, dd, cpl[j, P_SLACK], cpl[j, LIN_STIFF], cpl[j, LIN_DAMP],
                               cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
     zo = int(cpl[j, P_ZOFF])
     return _gear(j, model, d, dd, y, z0 + zo, dy, dz0 + zo, cpl, ctab)

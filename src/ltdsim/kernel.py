@@ -192,8 +192,8 @@ from ltdsim.layout import (
 from ltdsim.physics.brakes import (
     FRICTION_CONSTANT,
     FRICTION_KARWATZKI,
-    brake_retardation,
-    karwatzki,
+    karwatzki_mu,
+    retarding_force,
 )
 from ltdsim.physics.brakepipe import pipe_rates
 from ltdsim.physics.brakevalves import (
@@ -209,11 +209,11 @@ from ltdsim.physics.brakevalves import (
 )
 from ltdsim.physics.control import PID_STATE, pid_step
 from ltdsim.physics.resistance import (
-    curve_resistance,
+    curve_force,
     davis_force,
-    grade_resistance,
+    grade_force,
 )
-from ltdsim.physics.traction import adhesion_limit, traction_limit
+from ltdsim.physics.traction import adhesion_max, traction_max
 from ltdsim.physics.creep import W_I, W_R, W_VREG, slip_control, wheelset_rate
 from ltdsim.physics.foc import N_DRIVE, N_OUT, O_ID, O_IQ, O_PDC, drive_rates
 from ltdsim.physics.induction import S_PRD, S_PRQ, S_PSD, S_PSQ
@@ -561,7 +561,7 @@ def shoe_friction(i, v, shoe_force, veh, ctab):
     and force per shoe ``shoe_force`` (N)."""
     model = int(veh[i, V_BFRIC])
     if model == FRICTION_KARWATZKI:
-        return karwatzki(v, shoe_force)
+        return karwatzki_mu(v, shoe_force)
     if model == FRICTION_CONSTANT:
         return veh[i, V_BMU]
     return _interp_at(ctab, int(veh[i, V_BTAB]), int(veh[i, V_BNTAB]), abs(v))
@@ -597,8 +597,8 @@ def _resistance(y, tr, w):
         r = davis_force(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DIV0])
         kt = _segment(tr.track_pos, p, hints[i])
         hints[i] = kt
-        r += grade_resistance(wm, tr.track_grade[kt], g)
-        r += curve_resistance(v, wm, tr.track_curv[kt], tr.curve_h, g)
+        r += grade_force(wm, tr.track_grade[kt], g)
+        r += curve_force(v, wm, tr.track_curv[kt], tr.curve_h, g)
         rtot += r
         res[i] = r
     w.sig[0]["resistance"] = rtot
@@ -655,7 +655,7 @@ def _lumped_brakes(t, y, events, n_events, tr, dr, w, dy):
         fb = 0.0
         if fill > 0.0:
             shoe = fill * veh[i, V_BSHOE]
-            fb = -brake_retardation(v, fill * veh[i, V_BFULL]
+            fb = -retarding_force(v, fill * veh[i, V_BFULL]
                                     * shoe_friction(i, v, shoe, veh, ctab), vs)
         w.bforce[i] = fb
         res[i] += fb
@@ -758,7 +758,7 @@ def _cylinder_brake(i, p_cyl, v, tr, vs, w):
     fb = 0.0
     if fc > 0.0:
         shoe = fc * veh[i, V_BINVSHOES]
-        fb = -brake_retardation(v, fc * shoe_friction(i, v, shoe, veh, tr.tables), vs)
+        fb = -retarding_force(v, fc * shoe_friction(i, v, shoe, veh, tr.tables), vs)
     w.bforce[i] = fb
     w.res[i] += fb
 
@@ -1028,7 +1028,7 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
     fdem = 0.0
     for c in range(cons.shape[0]):
         vc = y[n + int(cons[c, K_VEH])]
-        lim = traction_limit(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
+        lim = traction_max(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
         m_own = int(cons[c, K_NLEN])
         if m_own > 0:
             dem = _held_at(ctab, int(cons[c, K_NOFF]), m_own, t) / 8.0 * lim
@@ -1313,7 +1313,7 @@ def _brake_commands(t, horizon, y, ctl, tr, dr, w, sampled):
         want = -(st["a_dem"] * trac[T_MTOT] + trac[T_FF] * w.sig[0]["resistance"])
         for c in range(cons.shape[0]):
             vc = y[n + int(cons[c, K_VEH])]
-            lim = traction_limit(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
+            lim = traction_max(vc, cons[c, K_FMAX], cons[c, K_PMAX], cons[c, K_MADH], g)
             fade = cons[c, K_DBFADE]
             if fade > 0.0:
                 lim *= min(max(vc / fade, 0.0), 1.0)
@@ -1811,7 +1811,7 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
     out_s[r, S_TRACTION] = sig["traction"]
     adh = 0.0
     for c in range(cons.shape[0]):
-        adh += adhesion_limit(y[n + int(cons[c, K_VEH])], cons[c, K_MADH], trac[T_G])
+        adh += adhesion_max(y[n + int(cons[c, K_VEH])], cons[c, K_MADH], trac[T_G])
     out_s[r, S_ADHESION] = adh
     out_s[r, S_DEMAND] = sig["demand"]
     out_s[r, S_BRAKE] = level

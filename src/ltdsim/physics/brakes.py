@@ -9,13 +9,24 @@ below a standstill speed, so that a stopped vehicle is held, not pushed backward
 
 from __future__ import annotations
 
-from numba import vectorize
+from numba import njit
+
+from ltdsim.physics._lazy import vectorize_when_used
 
 #: shoe friction models (codes in the compiled arrays)
 FRICTION_KARWATZKI, FRICTION_CONSTANT, FRICTION_TABLE = 0, 1, 2
 
 
-@vectorize(["float64(float64, float64)"], cache=True)
+@njit(cache=True)
+def karwatzki_mu(v, shoe_force):
+    """:func:`karwatzki` at one point, for compiled code: the kernels call it, the
+    ufunc (compiled when first used) is for arrays. Same arguments and units."""
+    k = 1e-3 * shoe_force
+    s = 3.6 * abs(v)
+    return 0.6 * (16.0 * k + 100.0) / (80.0 * k + 100.0) * (s + 100.0) / (5.0 * s + 100.0)
+
+
+@vectorize_when_used(["float64(float64, float64)"], cache=True)
 def karwatzki(v, shoe_force):
     """Friction coefficient of a cast-iron brake shoe (Karwatzki's formula), -.
 
@@ -29,12 +40,24 @@ def karwatzki(v, shoe_force):
     shoe_force : float or array
         Normal force on one shoe, N.
     """
-    k = 1e-3 * shoe_force
-    s = 3.6 * abs(v)
-    return 0.6 * (16.0 * k + 100.0) / (80.0 * k + 100.0) * (s + 100.0) / (5.0 * s + 100.0)
+    return karwatzki_mu(v, shoe_force)
 
 
-@vectorize(["float64(float64, float64, float64)"], cache=True)
+@njit(cache=True)
+def retarding_force(v, full_force, standstill_speed):
+    """:func:`brake_retardation` at one point, for compiled code: the kernels call it, the
+    ufunc (compiled when first used) is for arrays. Same arguments and units."""
+    if abs(v) < 1e-12:  # at rest (no endless decay into slow subnormal speeds)
+        return 0.0
+    r = v / standstill_speed
+    if r > 1.0:
+        r = 1.0
+    elif r < -1.0:
+        r = -1.0
+    return -full_force * r
+
+
+@vectorize_when_used(["float64(float64, float64, float64)"], cache=True)
 def brake_retardation(v, full_force, standstill_speed):
     """Signed braking force on a vehicle, N: ``-full_force`` in the direction of motion,
     faded linearly to zero between ``+-standstill_speed`` (m/s); zero below 1e-12 m/s.
@@ -48,11 +71,4 @@ def brake_retardation(v, full_force, standstill_speed):
     standstill_speed : float
         Fade speed, m/s (> 0).
     """
-    if abs(v) < 1e-12:  # at rest (no endless decay into slow subnormal speeds)
-        return 0.0
-    r = v / standstill_speed
-    if r > 1.0:
-        r = 1.0
-    elif r < -1.0:
-        r = -1.0
-    return -full_force * r
+    return retarding_force(v, full_force, standstill_speed)

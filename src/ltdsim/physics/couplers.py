@@ -21,7 +21,9 @@ A hysteretic gear first splits the coupler deflection with :func:`gear_deflectio
 from __future__ import annotations
 
 
-from numba import njit, vectorize
+from numba import njit
+
+from ltdsim.physics._lazy import vectorize_when_used
 
 from ltdsim.physics.decay import exp_neg
 
@@ -48,8 +50,26 @@ def solid_closure(x, travel, stiffness):
     return stiffness * max(x - travel, 0.0)  # (no inf x 0 when travel is inf)
 
 
-@vectorize(["float64(float64, float64, float64, float64, float64, float64, float64)"],
-           cache=True)
+@njit(cache=True)
+def linear_force(d, dd, slack, stiffness, damping, travel, solid_stiffness):
+    """:func:`coupler_linear` at one point, for compiled code: the kernels call it, the
+    ufunc (compiled when first used) is for arrays. Same arguments and units."""
+    h = 0.5 * slack
+    if d > h:
+        e = d - h
+        f = stiffness * e + solid_closure(e, travel, solid_stiffness)
+    elif d < -h:
+        e = d + h
+        f = stiffness * e - solid_closure(-e, travel, solid_stiffness)
+    elif slack > 0.0:
+        return 0.0
+    else:
+        return damping * dd  # no slack and d == 0 exactly: only the damper acts
+    return contact(f + damping * dd, e, slack)
+
+
+@vectorize_when_used(["float64(float64, float64, float64, float64, float64, float64, float64)"],
+                     cache=True)
 def coupler_linear(d, dd, slack, stiffness, damping, travel, solid_stiffness):
     """Linear spring-damper coupler with a slack dead band, N (+ tension).
 
@@ -73,18 +93,7 @@ def coupler_linear(d, dd, slack, stiffness, damping, travel, solid_stiffness):
     solid_stiffness : float
         Stiffness of the solid gear beyond ``travel``, N/m.
     """
-    h = 0.5 * slack
-    if d > h:
-        e = d - h
-        f = stiffness * e + solid_closure(e, travel, solid_stiffness)
-    elif d < -h:
-        e = d + h
-        f = stiffness * e - solid_closure(-e, travel, solid_stiffness)
-    elif slack > 0.0:
-        return 0.0
-    else:
-        return damping * dd  # no slack and d == 0 exactly: only the damper acts
-    return contact(f + damping * dd, e, slack)
+    return linear_force(d, dd, slack, stiffness, damping, travel, solid_stiffness)
 
 
 @njit(cache=True, inline="always")
@@ -108,7 +117,7 @@ def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc, travel,
     return contact(f, e, slack)
 
 
-@vectorize(
+@vectorize_when_used(
     ["float64(float64, float64, float64, float64, float64, float64, float64, float64, float64, "
      "float64, float64)"],
     cache=True,

@@ -7,7 +7,7 @@ force balance ``m a = F_traction - F_resist - T_i + T_(i-1)``.
 
 from __future__ import annotations
 
-from numba import njit, vectorize
+from numba import njit
 
 from ltdsim.physics._lazy import vectorize_when_used
 
@@ -60,7 +60,14 @@ def davis_resistance(v, a, b, c, v0):
     return davis_force(v, a, b, c, 1.0 / v0 if v0 > 1e-12 else PURE_SIGN)
 
 
-@vectorize(_F8_3, cache=True)
+@njit(cache=True)
+def grade_force(mass, grade, g):
+    """:func:`grade_resistance` at one point, for compiled code: the kernels call it, the
+    ufunc (compiled when first used) is for arrays. Same arguments and units."""
+    return mass * g * grade
+
+
+@vectorize_when_used(_F8_3, cache=True)
 def grade_resistance(mass, grade, g):
     """Gravitational component along a grade, N (paper Eq. 13).
 
@@ -78,10 +85,22 @@ def grade_resistance(mass, grade, g):
     g : float
         Gravitational acceleration, m/s^2.
     """
-    return mass * g * grade
+    return grade_force(mass, grade, g)
 
 
-@vectorize(_F8_5, cache=True)
+@njit(cache=True)
+def curve_force(v, mass, curvature, h, g):
+    """:func:`curve_resistance` at one point, for compiled code: the kernels call it, the
+    ufunc (compiled when first used) is for arrays. Same arguments and units."""
+    f = mass * g * h * abs(curvature) / 1000.0
+    if v > 0.0:
+        return f
+    if v < 0.0:
+        return -f
+    return 0.0
+
+
+@vectorize_when_used(_F8_5, cache=True)
 def curve_resistance(v, mass, curvature, h, g):
     """Curving resistance, N (paper Eq. 14).
 
@@ -103,9 +122,4 @@ def curve_resistance(v, mass, curvature, h, g):
     g : float
         Gravitational acceleration, m/s^2.
     """
-    f = mass * g * h * abs(curvature) / 1000.0
-    if v > 0.0:
-        return f
-    if v < 0.0:
-        return -f
-    return 0.0
+    return curve_force(v, mass, curvature, h, g)

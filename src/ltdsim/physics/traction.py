@@ -2,14 +2,23 @@
 
 from __future__ import annotations
 
-from numba import vectorize
+from numba import njit
+
+from ltdsim.physics._lazy import vectorize_when_used
 
 #: Curtius-Kniffler adhesion coefficient ``mu = C0 + C1 / (v_kmh + C2)``.
 CURTIUS_KNIFFLER = (0.161, 7.5, 44.0)
 _C0, _C1, _C2 = CURTIUS_KNIFFLER
 
 
-@vectorize(["float64(float64, float64, float64)"], cache=True)
+@njit(cache=True)
+def adhesion_max(v, adhesion_mass, g):
+    """:func:`adhesion_limit` at one point, for compiled code: the kernels call it, the
+    ufunc (compiled when first used) is for arrays. Same arguments and units."""
+    return adhesion_mass * g * (_C0 + _C1 / (3.6 * abs(v) + _C2))
+
+
+@vectorize_when_used(["float64(float64, float64, float64)"], cache=True)
 def adhesion_limit(v, adhesion_mass, g):
     """Largest tractive (or braking) force the wheel-rail contact transmits, N.
 
@@ -25,10 +34,26 @@ def adhesion_limit(v, adhesion_mass, g):
     g : float
         Gravitational acceleration, m/s^2.
     """
-    return adhesion_mass * g * (_C0 + _C1 / (3.6 * abs(v) + _C2))
+    return adhesion_max(v, adhesion_mass, g)
 
 
-@vectorize(["float64(float64, float64, float64, float64, float64)"], cache=True)
+@njit(cache=True)
+def traction_max(v, max_force, max_power, adhesion_mass, g):
+    """:func:`traction_limit` at one point, for compiled code: the kernels call it, the
+    ufunc (compiled when first used) is for arrays. Same arguments and units."""
+    f = max_force
+    s = abs(v)
+    if s * f > max_power:
+        f = max_power / max(s, 1e-12)  # (s > 0 here; the guard keeps speculation quiet)
+    # adhesion m g (c0 + c1 / (3.6 s + c2)) below f? Decided without the division (the
+    # denominator is positive), which is then paid only where adhesion limits
+    mg = adhesion_mass * g
+    if (f - mg * _C0) * (3.6 * s + _C2) > mg * _C1:
+        f = adhesion_max(s, adhesion_mass, g)
+    return f
+
+
+@vectorize_when_used(["float64(float64, float64, float64, float64, float64)"], cache=True)
 def traction_limit(v, max_force, max_power, adhesion_mass, g):
     """Traction curve: the largest force magnitude available at speed ``v``, N.
 
@@ -48,13 +73,4 @@ def traction_limit(v, max_force, max_power, adhesion_mass, g):
     g : float
         Gravitational acceleration, m/s^2.
     """
-    f = max_force
-    s = abs(v)
-    if s * f > max_power:
-        f = max_power / max(s, 1e-12)  # (s > 0 here; the guard keeps speculation quiet)
-    # adhesion m g (c0 + c1 / (3.6 s + c2)) below f? Decided without the division (the
-    # denominator is positive), which is then paid only where adhesion limits
-    mg = adhesion_mass * g
-    if (f - mg * _C0) * (3.6 * s + _C2) > mg * _C1:
-        f = adhesion_limit(s, adhesion_mass, g)
-    return f
+    return traction_max(v, max_force, max_power, adhesion_mass, g)
