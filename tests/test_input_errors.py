@@ -976,6 +976,9 @@ def _bad_results(folder: Path, good: Path) -> dict:
     made["classic"] = folder / "classic.nc"
     ds = ltdsim.load_result(good).drop_vars("coupler_force")
     made["incomplete"] = ltdsim.save_result(ds, folder / "incomplete.nc")
+    sel = build(train_dict([1e5, 8e4, 8e4], t_end=2.0, dt=1e-3))
+    sel = sel.with_overrides({"solver.record": ["coupler_force"]})
+    made["selected"] = ltdsim.save_result(ltdsim.simulate(sel), folder / "selected.nc")
     made["folder"] = folder / "folder.nc"
     made["folder"].mkdir()
     return made
@@ -984,6 +987,7 @@ def _bad_results(folder: Path, good: Path) -> dict:
 RESULT_WORDS = {"truncated": "cut short", "empty": "empty file", "text": "a text file",
                 "random": "unknown bytes", "foreign": "not a result written by ltdsim",
                 "classic": "netCDF-3", "incomplete": "lacks coupler_force",
+                "selected": "recorded only some time series (solver.record)",
                 "folder": "is a folder"}
 
 

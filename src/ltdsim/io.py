@@ -175,6 +175,12 @@ def load_result(path: str | Path) -> xr.Dataset:
     if missing:
         shown = ", ".join(missing[:6]) + (f" and {len(missing) - 6} more" if len(missing) > 6
                                           else "")
+        if "scenario_json" in ds.attrs and "ltdsim_version" in ds.attrs:
+            # an ltdsim result of a run that recorded a selection (solver.record)
+            raise _bad(path, f"a result written by ltdsim that lacks {shown}: its run "
+                             "recorded only some time series (solver.record), and this "
+                             "command reads the whole recording; run the scenario again "
+                             "without solver.record")
         raise _bad(path, f"a netCDF-4 file, but not a result written by ltdsim: it lacks "
                          f"{shown} (results come from ltdsim run -o FILE.nc or "
                          "ltdsim.save_result)")
