@@ -51,8 +51,9 @@ _CHILD = r"""
 import os, subprocess, sys
 sys.path.insert(0, sys.argv[1])
 import ltdsim, _reference_kernel
-from bench_kernel import force_case
-sc = force_case(ltdsim.load_scenario(sys.argv[2], case="LHHL")).with_overrides(
+from bench_kernel import force_case, forces_only
+# (simulate() records the coupler forces only, as the reference kernel does)
+sc = forces_only(force_case(ltdsim.load_scenario(sys.argv[2], case="LHHL"))).with_overrides(
     {"solver.t_end": float(sys.argv[3])})
 ltdsim.simulate(sc)  # load both kernels, warm
 _reference_kernel.simulate(sc)
