@@ -3,7 +3,8 @@
 The CPU seconds of bench_kernel.py move with the load of this shared machine; the
 instructions executed do not. This runs the force-mode case of bench_kernel.py (the
 base train, simplified couplers, ode3 at 1e-4 s, coupler forces at 1 ms) over
-``--seconds`` of simulated time, once through ``ltdsim.simulate()`` and once through
+``--seconds`` of simulated time, once through ``ltdsim.simulate()`` (recording the
+coupler forces only, ``solver.record``, as the reference does) and once through
 benchmarks/_reference_kernel.py, in one process under valgrind's callgrind with
 instrumentation on only around each call, and splits each count into the compiled
 kernel (numba's ``call_cfunc``), numba's typing of the arguments at each call
