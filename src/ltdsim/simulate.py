@@ -224,8 +224,8 @@ def check_memory(scenario: Scenario, source: str | None = None, parallel: int = 
         f"the recording would need about {_gb(need)} ({n_samples:,} samples of "
         f"{scenario.n_vehicles} vehicles at output_interval = {sv.output_interval:g} s up "
         f"to t_end = {sv.t_end:g} s){runs}: more than {MEMORY_SHARE:.0%} of the "
-        f"{_gb(avail)} of memory available; raise solver.output_interval or lower "
-        "solver.t_end")])
+        f"{_gb(avail)} of memory available; raise solver.output_interval, lower "
+        "solver.t_end or record fewer time series (solver.record)")])
 
 
 
@@ -253,7 +253,8 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         ``traction_demand`` (time); with the induction drive ``motor_torque``,
         ``motor_speed``, ``stator_current``, ``creep``, ``creep_force``, ``dc_power``,
         ``stator_flux_d``, ``stator_flux_q``, ``rotor_flux_d``, ``rotor_flux_q``
-        (time x locomotive, NaN for a consist on the traction curve). Units are
+        (time x locomotive, NaN for a consist on the traction curve); of the time
+        series only those ``solver.record`` names, when it names a selection. Units are
         in each variable's ``units`` attribute; the scenario (JSON) and run facts are in
         the dataset's attributes.
 
@@ -299,7 +300,8 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
         "b": np.zeros((n_rec, cols("b", nb))), "p": np.zeros((n_rec, cols("p", nb))),
         "c": np.zeros((n_rec, cols("c", nk if nk > 1 else 0))),
         "bp": np.zeros((n_rec, cols("bp", nf))), "ar": np.zeros((n_rec, cols("ar", nf))),
-        "bc": np.zeros((n_rec, cols("bc", nf))), "ax": np.zeros((n_rec, cols("ax", 1 if nf else 0))),
+        "bc": np.zeros((n_rec, cols("bc", nf))),
+        "ax": np.zeros((n_rec, cols("ax", 1 if nf else 0))),
         "m": np.zeros((n_rec, cols("m", low.drive_z.size), N_DRIVE_SIGNALS)),
         "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
         "events": np.zeros((MAX_EVENTS, N_EVENT_COLUMNS)),
