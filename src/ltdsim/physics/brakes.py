@@ -17,7 +17,7 @@ from ltdsim.physics._lazy import vectorize_when_used
 FRICTION_KARWATZKI, FRICTION_CONSTANT, FRICTION_TABLE = 0, 1, 2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def karwatzki_mu(v, shoe_force):
     """:func:`karwatzki` at one point, for compiled code: the kernels call it, the
     ufunc (compiled when first used) is for arrays. Same arguments and units."""
@@ -43,7 +43,7 @@ def karwatzki(v, shoe_force):
     return karwatzki_mu(v, shoe_force)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def retarding_force(v, full_force, standstill_speed):
     """:func:`brake_retardation` at one point, for compiled code: the kernels call it, the
     ufunc (compiled when first used) is for arrays. Same arguments and units."""

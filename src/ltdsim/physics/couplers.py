@@ -50,7 +50,7 @@ def solid_closure(x, travel, stiffness):
     return stiffness * max(x - travel, 0.0)  # (no inf x 0 when travel is inf)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def linear_force(d, dd, slack, stiffness, damping, travel, solid_stiffness):
     """:func:`coupler_linear` at one point, for compiled code: the kernels call it, the
     ufunc (compiled when first used) is for arrays. Same arguments and units."""

@@ -60,7 +60,7 @@ def davis_resistance(v, a, b, c, v0):
     return davis_force(v, a, b, c, 1.0 / v0 if v0 > 1e-12 else PURE_SIGN)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def grade_force(mass, grade, g):
     """:func:`grade_resistance` at one point, for compiled code: the kernels call it, the
     ufunc (compiled when first used) is for arrays. Same arguments and units."""
@@ -88,7 +88,7 @@ def grade_resistance(mass, grade, g):
     return grade_force(mass, grade, g)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def curve_force(v, mass, curvature, h, g):
     """:func:`curve_resistance` at one point, for compiled code: the kernels call it, the
     ufunc (compiled when first used) is for arrays. Same arguments and units."""

@@ -11,7 +11,7 @@ CURTIUS_KNIFFLER = (0.161, 7.5, 44.0)
 _C0, _C1, _C2 = CURTIUS_KNIFFLER
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def adhesion_max(v, adhesion_mass, g):
     """:func:`adhesion_limit` at one point, for compiled code: the kernels call it, the
     ufunc (compiled when first used) is for arrays. Same arguments and units."""
@@ -37,7 +37,7 @@ def adhesion_limit(v, adhesion_mass, g):
     return adhesion_max(v, adhesion_mass, g)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def traction_max(v, max_force, max_power, adhesion_mass, g):
     """:func:`traction_limit` at one point, for compiled code: the kernels call it, the
     ufunc (compiled when first used) is for arrays. Same arguments and units."""
