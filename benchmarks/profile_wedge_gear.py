@@ -320,8 +320,8 @@ def main(argv=None) -> dict:
     rows = []
     for preset in PRESETS:
         sh = ", ".join(f"{k} {100 * v:.1f} %" for k, v in shares[preset].items())
-        rows.append((f"{preset}: library coupler_force", f"{counts[f'{preset}|library'] / n_rec:.0f}",
-                     f"1 ms samples: {sh}"))
+        lib = counts[f"{preset}|library"] / n_rec
+        rows.append((f"{preset}: library coupler_force", f"{lib:.0f}", f"1 ms samples: {sh}"))
         if preset == "simplified":
             continue
         copy = counts[f"{preset}|copy"] / n_rec
