@@ -1,13 +1,29 @@
 """Draft-gear benchmark: the base scenario with friction gears against the simplified
 coupler (same process, interleaved rounds, medians), and the model reduction's wall time.
 
-Usage: python benchmarks/bench_draftgear.py [--repeats 5]
+With ``--instructions SECONDS`` it also counts, with valgrind's callgrind, the
+instructions the kernel executes (inside numba's dispatcher call) over the first
+SECONDS of the study case with each coupler, a measure the shared machine's load does
+not move. Under valgrind numba sees another CPU (valgrind runs no AVX-512) and would
+compile the kernels again, for an hour; so each case is first run natively with its
+kernels compiled for a fixed CPU (``NUMBA_CPU_NAME=haswell``: AVX2, which valgrind
+runs) into a fresh cache of its own, from which the counted child loads them. The
+counts are of that haswell code, not of the code numba makes for this machine.
+
+Usage: python benchmarks/bench_draftgear.py [--repeats 5] [--no-reduce]
+       [--instructions SECONDS]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import re
+import shutil
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -41,13 +57,67 @@ def _interleaved_times(scenarios: dict, repeats: int) -> tuple[dict, dict]:
     return times, cpu
 
 
+_COUNT = r"""
+import os, subprocess, sys
+import ltdsim
+preset, seconds, counted = sys.argv[1], float(sys.argv[2]), sys.argv[3] == "1"
+sc = ltdsim.load_scenario(sys.argv[4], case="LHHL")
+if preset != "simplified":
+    sc = sc.with_overrides({"couplers.default": {"preset": preset}})
+sc = sc.with_overrides({"solver.t_end": seconds})
+ltdsim.simulate(sc.with_overrides({"solver.t_end": 0.01}))  # compile or load
+if counted:
+    subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True,
+                   capture_output=True)
+ltdsim.simulate(sc)
+if counted:
+    subprocess.run(["callgrind_control", "-i", "off", str(os.getpid())], check=True,
+                   capture_output=True)
+"""
+
+
+def _instructions(cases, seconds: float) -> dict:
+    """Instructions (callgrind) of the kernel over the first ``seconds`` of the study
+    case, per case (see the module text for the fixed CPU)."""
+    if shutil.which("valgrind") is None:
+        raise SystemExit("--instructions: valgrind is not installed")
+    work = Path(tempfile.mkdtemp(prefix="ltdsim-draftgear-"))
+    env = dict(os.environ, NUMBA_CPU_NAME="haswell", NUMBA_CPU_FEATURES="",
+               NUMBA_CACHE_DIR=str(work / "cache"))
+    counts = {}
+    try:
+        for name in cases:
+            args = [name, str(seconds)]
+            subprocess.run([sys.executable, "-c", _COUNT, *args, "0", str(PAPER)], env=env,
+                           check=True, capture_output=True)  # compile into the cache
+            out = work / f"callgrind-{name}.out"
+            proc = subprocess.run(
+                ["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                 "--toggle-collect=*call_cfunc*", f"--callgrind-out-file={out}",
+                 sys.executable, "-c", _COUNT, *args, "1", str(PAPER)],
+                env=env, capture_output=True, text=True)
+            if proc.returncode != 0:
+                raise SystemExit(f"callgrind of {name} failed:\n{proc.stderr[-2000:]}")
+            counts[name] = int(re.search(r"^totals: (\d+)", out.read_text(), re.M).group(1))
+            print(f"  {name}: {counts[name] / 1e9:.3f} G instructions", flush=True)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    return counts
+
+
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", type=Path, default=HERE / "results")
     ap.add_argument("--no-reduce", action="store_true",
                     help="skip the model reductions (only the coupler timings)")
+    ap.add_argument("--instructions", type=float, default=0.0, metavar="SECONDS",
+                    help="also count the kernel's instructions (callgrind) over the first "
+                         "SECONDS of the study case with each coupler (0: no count)")
     args = ap.parse_args(argv)
+    if args.instructions < 0.0 or args.instructions > 270.0:
+        raise SystemExit(f"--instructions: {args.instructions:g} s is outside 0-270 s "
+                         "(the study case's length)")
 
     base = ltdsim.load_scenario(PAPER, case="LHHL")
     steps = base.solver.n_steps
@@ -76,6 +146,16 @@ def main(argv=None) -> dict:
                      f"{statistics.median(cpu[preset]):.2f}", f"{ratio_cpu:.2f}x"))
     results = {"simplified_s": simplified, "simplified_cpu_s": simplified_cpu, "steps": steps,
                **ratios, "kernel_s": times, "cpu_s": cpu}
+    if args.instructions > 0.0:
+        print(f"counting instructions over the first {args.instructions:g} s (callgrind)",
+              flush=True)
+        counts = _instructions(scenarios, args.instructions)
+        for name, count in counts.items():
+            label = "simplified coupler (LHHL)" if name == "simplified" else name
+            rows.append((f"{label}, instructions in {args.instructions:g} s",
+                         f"{count / 1e9:.3f} G", f"{count / counts['simplified']:.2f}x"))
+        results["instructions"] = counts
+        results["instructions_seconds"] = args.instructions
     for preset in (() if args.no_reduce else presets):
         t0 = time.perf_counter()
         r = reduce_gear(CouplerParams(preset=preset), workers=-1)
@@ -89,7 +169,10 @@ def main(argv=None) -> dict:
     publish(args.out, "bench_draftgear",
             f"Draft-gear benchmark, {{stamp}}; base scenario 270 s at dt 1e-4 with ode3, "
             f"{args.repeats} rounds of one run each after a warm-up; ratios within a round, "
-            f"medians over the rounds", rows,
+            f"medians over the rounds"
+            + ("" if args.instructions <= 0.0 else
+               "; instructions counted by callgrind in the kernel compiled for haswell")
+            , rows,
             columns=("quantity", "value", "ratio / note"), result=results)
     return results
 

@@ -53,6 +53,60 @@ def by_hand(x, c: CouplerParams, plates: bool, loading: bool):
     return psi * f_sm - (psi - 1) * f_sr
 
 
+def by_hand_moving(x, v, c: CouplerParams, plates: bool):
+    """Paper Eq. 1 at gear speed ``v`` (m/s): each friction coefficient from Eq. 3 at its
+    sliding speed (Eq. 4: v_i = c_i v; the plates at v on loading, G v on unloading),
+    with trigonometric functions and NumPy's exp. Returns (loading, unloading) force, N."""
+    a, b, g = (math.radians(w) for w in (c.alpha_deg, c.beta_deg, c.gamma_deg))
+    G = math.cos(a) * math.cos(g - b) / (math.cos(a + g) * math.cos(b))
+    c1 = math.cos(a) / math.cos(a + g)
+    c2 = math.sin(g) / math.cos(a + g)
+    c3 = math.cos(a) * math.sin(g) / (math.cos(a + g) * math.cos(b))
+
+    def mu(speed):
+        return c.h1 + c.h2 * float(np.exp(-c.h3 * abs(speed)))
+
+    mu1, mu2, mu3 = mu(c1 * v) * c.S, mu(c2 * v), mu(c3 * v)
+    tg = math.tan(g)
+    out = []
+    for sg, mu4 in ((1.0, mu(v)), (-1.0, mu(G * v))):
+        psi = ((1 + math.tan(b + sg * math.atan(mu3)) * math.tan(g + sg * math.atan(mu1)))
+               / (1 - math.tan(a + sg * math.atan(mu2)) * math.tan(g + sg * math.atan(mu1))))
+        if plates and sg > 0:
+            psi = psi + 2 * (1 - mu1 * tg) * mu4 * (psi - 1) / (mu1 + tg)
+        elif plates:
+            psi = (tg - mu1) * psi / (tg * (1 - 2 * mu1 * mu4 + 2 * mu1 * mu4 * psi)
+                                      + 2 * mu4 * psi - 2 * mu4 - mu1)
+        f_sm = c.k_m * (c.x_m0 + G * x)
+        f_sr = max(c.k_r * (c.x_r0 - (G - 1) * x), 0.0)
+        out.append(psi * f_sm - (psi - 1) * f_sr)
+    return out
+
+
+@settings(max_examples=200, deadline=None)
+@given(preset=st.sampled_from(["friction-wedge-low", "friction-wedge-high"]),
+       v=st.one_of(st.floats(0.0, 0.05), st.floats(0.0, 3.0), st.floats(-3.0, 0.0)),
+       x=st.floats(0.0, 0.08), plates=st.booleans())
+def test_the_curves_at_speed_are_equation_1_with_each_friction_at_its_sliding_speed(
+        preset, v, x, plates):
+    """The compiled curves of a moving gear (friction laws at the sliding speeds of
+    Eq. 4, the exponentials by series: below about 0.05 m/s all of them from the
+    series' head at once) equal Eq. 1 and 3 by hand, to 1e-9."""
+    from ltdsim.physics.draftgear import wedge_curves
+
+    c = CouplerParams(preset=preset)
+    a, b, g = (math.radians(w) for w in (c.alpha_deg, c.beta_deg, c.gamma_deg))
+    G = math.cos(a) * math.cos(g - b) / (math.cos(a + g) * math.cos(b))
+    c1 = math.cos(a) / math.cos(a + g)
+    c2 = math.sin(g) / math.cos(a + g)
+    c3 = math.cos(a) * math.sin(g) / (math.cos(a + g) * math.cos(b))
+    engaged = 1.0 if plates else 0.0
+    f_l, f_u, _, _ = wedge_curves(x, v, math.tan(a), math.tan(b), math.tan(g), G, c1, c2, c3,
+                                  c.h1, c.h2, c.h3, c.S, c.k_m, c.x_m0, c.k_r, c.x_r0,
+                                  engaged, engaged)
+    assert_allclose([f_l, f_u], by_hand_moving(x, v, c, plates), rtol=1e-9)
+
+
 @pytest.mark.parametrize("params", [
     dict(preset="friction-wedge-high", slack=0.0),
     dict(preset="friction-wedge-low", slack=0.0, k_locked=4e7),

@@ -139,6 +139,21 @@ def test_fast_decay_is_the_exponential_to_the_last_bits(z):
     assert abs(exp_neg_small_ufunc(z) - ref) <= tol_small
 
 
+@settings(max_examples=300, deadline=None)  # (the first call compiles: physics._lazy)
+@given(z=st.one_of(st.floats(0.0, 1.0 / 32.0, exclude_max=True),
+                   st.floats(0.0, 2.0 ** -10), st.floats(0.0, 1e-8)))
+def test_below_1_32_the_series_tail_changes_no_bit(z):
+    """exp_neg_small returns the series' head alone below 1/32: the tail it leaves out
+    (under 2.3e-17) is below half a unit in the last place of the head, so the whole
+    series, evaluated with its tail added, is the same double."""
+    from ltdsim.physics.decay import HEAD_LIMIT, exp_neg_small_ufunc, exp_series_ufunc
+
+    assert HEAD_LIMIT == 1.0 / 32.0
+    got = np.float64(exp_neg_small_ufunc(z))
+    assert got.view(np.int64) == np.float64(exp_series_ufunc(z)).view(np.int64)
+    assert abs(got - np.exp(-z)) <= 2 * np.spacing(np.exp(-z))
+
+
 def test_fast_decay_passes_nan_and_infinity_through():
     from ltdsim.physics.decay import exp_neg_small_ufunc, exp_neg_ufunc
 

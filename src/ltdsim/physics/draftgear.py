@@ -48,7 +48,7 @@ from numba import njit
 
 from ltdsim.physics._lazy import vectorize_when_used
 from ltdsim.physics.couplers import solid_closure
-from ltdsim.physics.decay import exp_neg_small
+from ltdsim.physics.decay import HEAD_LIMIT, exp_neg_small, series_head
 
 
 
@@ -135,11 +135,28 @@ def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m,
     the plates engage and disengage.
     """
     s = abs(v)
-    mu1 = friction_coefficient(h1, h2, h3, c1 * s) * s_factor
-    mu2 = friction_coefficient(h1, h2, h3, c2 * s)
-    mu3 = friction_coefficient(h1, h2, h3, c3 * s)
-    mu4l = friction_coefficient(h1, h2, h3, s) if plates_loading > 0.0 else 0.0
-    mu4u = friction_coefficient(h1, h2, h3, big_g * s) if plates_unloading > 0.0 else 0.0
+    # the exponents h3 |v_i| (s/m times m/s) of the friction laws at the sliding speeds
+    # v1..v3 (paper Eq. 4) and at the plates' speeds s (loading) and G s (unloading)
+    z1 = h3 * abs(c1 * s)
+    z2 = h3 * abs(c2 * s)
+    z3 = h3 * abs(c3 * s)
+    z4 = h3 * abs(s)
+    z5 = h3 * abs(big_g * s)
+    if 0.0 <= max(max(max(z1, z2), max(z3, z4)), z5) < HEAD_LIMIT:
+        # all small (the gear's usual state): each exponential is the series' head,
+        # bit for bit what friction_coefficient gives, with one test for all of them
+        # instead of one per law
+        mu1 = (h1 + h2 * series_head(z1)) * s_factor
+        mu2 = h1 + h2 * series_head(z2)
+        mu3 = h1 + h2 * series_head(z3)
+        mu4l = h1 + h2 * series_head(z4) if plates_loading > 0.0 else 0.0
+        mu4u = h1 + h2 * series_head(z5) if plates_unloading > 0.0 else 0.0
+    else:
+        mu1 = friction_coefficient(h1, h2, h3, c1 * s) * s_factor
+        mu2 = friction_coefficient(h1, h2, h3, c2 * s)
+        mu3 = friction_coefficient(h1, h2, h3, c3 * s)
+        mu4l = friction_coefficient(h1, h2, h3, s) if plates_loading > 0.0 else 0.0
+        mu4u = friction_coefficient(h1, h2, h3, big_g * s) if plates_unloading > 0.0 else 0.0
     nl, dl = _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates_loading, mu4l, True)
     nu, du = _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates_unloading, mu4u, False)
     # both quotients with one division
