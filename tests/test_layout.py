@@ -277,6 +277,14 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     assert low2.drv[col(D, "mode")] == L.DRIVER_MODES.index("force")
     np.testing.assert_array_equal(low2.prof_t, [0.0, 1.0])
     np.testing.assert_array_equal(low2.prof_y, [1e5, -2e4])
+    # solver.record: the widths of the kernel's record arrays (0: not recorded)
+    import importlib
+    sim = importlib.import_module("ltdsim.simulate")
+    sel = sc.with_overrides({"solver.record": ["coupler_force", "velocity"]})
+    rec = sim._buffers(lower(sel), 3, sim.recorded(sel))[0]
+    assert rec["f"].shape == (3, nv - 1) and rec["v"].shape == (3, nv)
+    assert rec["x"].shape[1] == rec["a"].shape[1] == rec["d"].shape[1] == 0
+    assert sim._buffers(lower(sc), 3, sim.recorded(sc))[0]["x"].shape == (3, nv)
     placed = {
         Driver: {"mode", "notch_profile", "brake_profile", "brake_positions",
                  "force_profile", "speed_profile", "pid", "brake_controller",
@@ -288,7 +296,7 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
         # transitions and profile through Track.resistance_curve, checked there)
         Track: set(track) | {"transitions", "cant", "profile", "profile_file",
                              "rail_spacing"},
-        Solver: set(solver) | {"stability_check"},  # (a check at validation)
+        Solver: set(solver) | {"stability_check", "record"},  # (a check at validation)
         Initial: {"speed", "velocities", "couplers"},
     }
     for cls, keys in placed.items():
