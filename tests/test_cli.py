@@ -303,6 +303,7 @@ def test_a_run_recording_only_the_coupler_forces_prints_the_same_closed_form_ten
     cells = [c.strip() for c in re.split(r"[│|]", row) if c.strip()]
     assert_allclose(float(cells[1]), 2 * F * M2 / (M1 + M2) / 1e3, atol=0.06)  # kN
     assert "top speed" not in res.output and "RMS speed error" not in res.output
+    assert "nan" not in res.output and "peak traction" in res.output
     bad = invoke("run", scenario, "--set", 'solver.record=["coupler_force"]', "--plot",
                  str(tmp_path / "f.png"))
     assert bad.exit_code == 2 and "solver.record" in bad.stderr and "--plot" in bad.stderr

@@ -380,8 +380,10 @@ def run(
                 f"max {_speed(s['max_speed_error_m_s'], 3)}; "
                 if s["rms_speed_error_m_s"] == s["rms_speed_error_m_s"] else "")
     console.print(
-        f"{tracking}max |acceleration| {s['max_abs_acceleration_m_s2']:.3f} m/s^2; "
-        f"peak traction {s['max_traction_N'] / 1e3:.1f} kN; "
+        f"{tracking}"
+        + (f"max |acceleration| {s['max_abs_acceleration_m_s2']:.3f} m/s^2; "
+           if s["max_abs_acceleration_m_s2"] == s["max_abs_acceleration_m_s2"] else "")
+        + f"peak traction {s['max_traction_N'] / 1e3:.1f} kN; "
         f"samples over adhesion {s['samples_over_adhesion']}; "
         + (f"peak air brake {s['max_air_brake_N'] / 1e3:.0f} kN; " if s["max_air_brake_N"] else "")
         + (f"bs23 {ds.attrs['steps']:,} steps ({ds.attrs['rejected_steps']:,} rejected); "
