@@ -63,8 +63,17 @@ def _profiling_kernel():
          "def run_adaptive_prof(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out, "
          "log, count):"),
         ("        err = np.inf\n        if total", "        err = np.inf\n        qmax = -1\n        if total"),
-        ("                if e > err:\n                    err = e\n",
-         "                if e > err:\n                    err = e\n                    qmax = q\n"),
+        ("                e = abs(e) / sc\n                if e > err:\n                    err = e\n",
+         "                e = abs(e) / sc\n                if e > err:\n                    err = e\n"
+         "                    qmax = q\n"),
+        # (the gears' internal forces and plates, whose errors run_adaptive takes apart)
+        ("abs(ynew[q])))\n                if e > err:\n                    err = e\n",
+         "abs(ynew[q])))\n                if e > err:\n                    err = e\n"
+         "                    qmax = q\n"),
+        # (a gear's plates, whose error run_adaptive takes with its internal force's)
+        ("                    if e > err:\n                        err = e\n",
+         "                    if e > err:\n                        err = e\n"
+         "                        qmax = qp\n"),
         ("        if err <= 1.0:\n            t = t_new\n",
          "        i_log = count[0]\n"
          "        if i_log < log.shape[0]:\n"

@@ -10,9 +10,14 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose
+from scipy.integrate import solve_ivp
 
+from ltdsim.coupler_models import coupler_force, lower_coupler
 from ltdsim.gear import drive_deflection, impact
+from ltdsim.kernel import _relax_in_slack
 from ltdsim.scenario import CouplerParams
 
 # a table gear whose loading and unloading curves are parallel lines (slope S, N/m) and
@@ -77,3 +82,38 @@ def test_bs23_and_a_fine_fixed_step_integrate_the_same_gear():
     adaptive = impact(c, 1.5, method="bs23", dt=1e-4, t_max=1.0)
     assert_allclose(adaptive["kinetic_energy_lost_J"], fine["kinetic_energy_lost_J"], rtol=2e-3)
     assert_allclose(adaptive["peak_force_N"], fine["peak_force_N"], rtol=1e-4)
+
+
+# ------------------------------------------------------------ bs23 over a gear's slack
+@settings(max_examples=40, deadline=None)
+@given(f1=st.floats(0.0, 2e6), p=st.floats(0.0, 0.05), h=st.floats(1e-5, 0.2),
+       tau=st.sampled_from([4e-4, 2e-3, 0.05]), preset=st.sampled_from(
+           ["friction-wedge-high", "friction-wedge-low", "polymer-heavy-haul"]))
+def test_a_gear_relaxes_in_its_slack_as_its_own_law_integrated_finely(f1, p, h, tau, preset):
+    # run_adaptive relaxes a gear's states exactly over a step spent in the slack: the
+    # closed form must be the gear's own slack law (coupler_force's state rates at a
+    # deflection inside the slack) integrated by a stiff solver to tight tolerance
+    c = CouplerParams(preset=preset, tracking_time=tau)
+    one = lower_coupler(c, [])
+    cpl = one.row[None, :]
+    ctab = np.zeros(1)
+    nz = len(one.states)
+    plate = one.states == ("force", "x")
+    y0 = np.array([f1, p][:nz])
+
+    def law(t, z):
+        dz = np.zeros(nz)
+        force = coupler_force(0, one.code, 0.25 * c.slack, 0.1, z, 0, dz, 0, cpl, ctab)
+        assert force == 0.0  # (inside the slack)
+        return dz
+
+    ref = solve_ivp(law, (0.0, h), y0, method="Radau", rtol=1e-11, atol=[1e-6, 1e-15][:nz])
+    y = np.zeros(nz)
+    y[:] = y0
+    ynew = np.zeros(nz)
+    dyend = np.zeros(nz)
+    _relax_in_slack(0, 0, 1 if plate else -1, y, ynew, dyend, h, cpl)
+    assert_allclose(ynew[0], ref.y[0, -1], rtol=1e-8, atol=1e-3)  # N
+    if plate:  # (the plates stop within 1e-12 m of home, as the law does)
+        assert_allclose(ynew[1], ref.y[1, -1], rtol=1e-6, atol=2e-12)  # m
+    assert_allclose(dyend, law(h, ynew), rtol=1e-12, atol=1e-9)  # the rates at the end

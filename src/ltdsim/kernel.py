@@ -80,7 +80,17 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ltdsim.coupler_models import M_SIMPLIFIED, P_D0, coupler_force
+from ltdsim.coupler_models import (
+    M_SIMPLIFIED,
+    P_D0,
+    P_F0,
+    P_RATE,
+    P_SLACK,
+    W_BACK,
+    W_GAP,
+    coupler_force,
+)
+from ltdsim.physics.draftgear import plate_rate, relax
 from ltdsim.layout import (
     DM_FADE,
     DM_GEAR_EFF,
@@ -371,6 +381,16 @@ class Adaptive(NamedTuple):
     b: np.ndarray  # (stages,) weights of the solution kept
     c: np.ndarray  # (stages,) nodes
     e: np.ndarray  # (stages + 1,) error weights, the last for the step's end (FSAL)
+    # the error norm's absolute scales with each hysteretic gear's internal force F1
+    # left out (inf): F1 enters through the error of the force the gear exerts
+    # (_exerted_error), on the scale atol
+    err_atol: np.ndarray  # (ny,)
+    gear_f1: np.ndarray  # (gears,) int64: the state index of each gear's F1 in y
+    gear_of: np.ndarray  # (gears,) int64: its coupler
+    gear_plate: np.ndarray  # (gears,) int64: its plates' state in y, its error taken
+    #                         with F1's (then inf in err_atol), or -1
+    gear_exact: np.ndarray  # (gears,) int64: 1 if its states relax in the slack to
+    #                         constants (_relax_in_slack), else 0
 
 
 class Work(NamedTuple):
@@ -1565,6 +1585,82 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     return OK, k_stop
 
 
+@njit(cache=True, inline="always")
+def _exerted_error(f1, e, f, f0):
+    """Error estimate (N) of the force a hysteretic gear exerts, from the estimate ``e``
+    (N, the kept solution minus the embedded one) of its internal force ``f1`` (N) at the
+    step's end, where the gear exerts ``f`` (N, a magnitude); ``f0`` (N) its released
+    force.
+
+    The gear exerts ``f1`` clipped to its band between the unloading and the loading
+    curve. Above the loading curve (``f1 > f``) the internal force runs ahead of the
+    force by the gear's relaxation lag, and its error changes the force only as far as
+    the embedded solution ``f1 - e`` falls below the curve; below the unloading curve
+    likewise; locked in the band (``f1 == f``) the error is ``e`` itself. In the slack
+    (``f == 0``) the internal force relaxes to ``f0`` and sets the force the gear meets
+    the next load with, ``f1`` clipped to the band at closure, whose top is ``f0``
+    (the released gear's loading curve): what counts is the error of ``min(f1, f0)``."""
+    f_lo = f1 - e
+    if f > 0.0:
+        if f1 > f:
+            return max(f - f_lo, 0.0)
+        if f1 < f:
+            return max(f_lo - f, 0.0)
+        return abs(e)
+    return abs(min(f1, f0) - min(f_lo, f0))
+
+
+@njit(cache=True, inline="always")
+def _in_slack(d, slack):
+    """Is a coupling of free play ``slack`` (m) at deflection ``d`` (m) in its slack
+    (as :func:`ltdsim.physics.couplers.gear_deflection` decides)?"""
+    return slack > 0.0 and abs(d) <= 0.5 * slack
+
+
+@njit(cache=True, inline="always")
+def _slack_throughout(j, y, ynew, K, ny, h, A, ns, cpl):
+    """Was coupler ``j`` in its slack at the start of a step of size ``h`` (s) from
+    ``y``, at each of its stages (positions ``y + h sum A K``) and at its end
+    ``ynew``? (Positions are the first states of ``y``, m.)"""
+    slack = cpl[j, P_SLACK]
+    d0 = cpl[j, P_D0]
+    if not (_in_slack(y[j] - y[j + 1] + d0, slack)
+            and _in_slack(ynew[j] - ynew[j + 1] + d0, slack)):
+        return False
+    for s in range(1, ns):
+        a = y[j]
+        b = y[j + 1]
+        for i in range(s):
+            wt = h * A[s, i]
+            a += wt * K[i * ny + j]
+            b += wt * K[i * ny + j + 1]
+        if not _in_slack(a - b + d0, slack):
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def _relax_in_slack(j, q, qp, y, ynew, dyend, h, cpl):
+    """Relax the states of hysteretic gear ``j`` exactly over a step of ``h`` (s) spent
+    in its slack, from ``y`` into ``ynew``, and their rates at the step's end into
+    ``dyend`` (the first-same-as-last stage): its internal force (state ``q``, N) to the
+    released force, its plates (state ``qp``, m; -1 none) home, each at the gear's
+    relaxation rate (1/s), as :func:`ltdsim.coupler_models.coupler_force` gives them in
+    the slack (the plates stop within 1e-12 m of home, as there)."""
+    rate = cpl[j, P_RATE]
+    decay = np.exp(-rate * h)
+    f0 = cpl[j, P_F0]
+    ynew[q] = f0 + (y[q] - f0) * decay
+    dyend[q] = relax(ynew[q], f0, rate)
+    if qp >= 0:
+        p = y[qp]
+        if p > 1e-12:
+            p = max(p * decay, 1e-12)
+        ynew[qp] = p
+        dyend[qp] = plate_rate(-cpl[j, W_GAP], p, 0.0, cpl[j, W_BACK], rate) \
+            if p > 1e-12 else 0.0
+
+
 @njit(cache=True, _nrt=False)
 def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     """Advance ``y`` with an embedded Runge-Kutta pair (the Bogacki-Shampine 3(2) of
@@ -1574,7 +1670,10 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     ``ctl`` :class:`Controller`, ``stepper`` one ``STEPPER`` record (array of one)
     carried over between calls, ``ad`` :class:`Adaptive`; the others as in :func:`run`
     (``w`` sized for the pair's stages plus one). Every step keeps the error estimate
-    ``|y3 - y2|`` within ``atol + rtol |y|`` element by element (max norm); steps end
+    ``|y3 - y2|`` within ``atol + rtol |y|`` element by element (max norm), a
+    hysteretic gear's internal force by the error of the force it exerts
+    (:func:`_exerted_error`); a gear that spends the whole step in its slack has its
+    states relaxed exactly (:func:`_relax_in_slack`). Steps end
     exactly on record times, controller samples and scheduled brake commands. Records
     ``r_start`` (when it is 0) to ``r_stop - 1``, and ``n_rec - 1`` when ``r_stop``
     reaches ``n_rec``.
@@ -1600,6 +1699,12 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     E = ad.e
     ns = B.shape[0]
     atol = ad.atol
+    err_atol = ad.err_atol
+    gear_f1 = ad.gear_f1
+    gear_of = ad.gear_of
+    gear_plate = ad.gear_plate
+    gear_exact = ad.gear_exact
+    cpl = cp.par
     rtol = ad.rtol
     out_dt = ad.out_dt
     n_rec = ad.n_rec
@@ -1714,10 +1819,32 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             for q in range(ny):
                 e = h_try * (e0 * K[q] + e1 * K[ny + q] + e2 * K[2 * ny + q]
                              + e3 * K[3 * ny + q])
-                sc = atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q]))
+                sc = err_atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q]))
                 e = abs(e) / sc
                 if e > err:
                     err = e
+            for g in range(gear_f1.shape[0]):
+                q = gear_f1[g]
+                j = gear_of[g]
+                qp = gear_plate[g]
+                if gear_exact[g] and _slack_throughout(j, y, ynew, K, ny, h_try, A, ns,
+                                                       cpl):
+                    # the gear spent the step in its slack, where its states relax to
+                    # constants and act on nothing: relax them exactly (no error)
+                    _relax_in_slack(j, q, qp, y, ynew, K[ns * ny:], h_try, cpl)
+                    continue
+                e = h_try * (e0 * K[q] + e1 * K[ny + q] + e2 * K[2 * ny + q]
+                             + e3 * K[3 * ny + q])
+                e = _exerted_error(ynew[q], e, abs(force[j]), cpl[j, P_F0])
+                e = e / (atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q])))
+                if e > err:
+                    err = e
+                if qp >= 0:
+                    e = h_try * (e0 * K[qp] + e1 * K[ny + qp] + e2 * K[2 * ny + qp]
+                                 + e3 * K[3 * ny + qp])
+                    e = abs(e) / (atol[qp] + rtol[qp] * max(abs(y[qp]), abs(ynew[qp])))
+                    if e > err:
+                        err = e
             if not (err - err == 0.0):
                 err = np.inf
         if err <= 1.0:

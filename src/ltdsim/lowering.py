@@ -35,6 +35,11 @@ from ltdsim.scenario import Scenario
 #: N/m: force states enter the bs23 error norm as force / FORCE_SCALE, so ``atol`` reads
 #: as metres of gear deflection for them too (1e-6 m -> 1 N)
 FORCE_SCALE = 1.0e6
+#: N/m: a hysteretic gear's internal force enters it as force / GEAR_FORCE_SCALE, the
+#: slope of a freight draft gear's curves (the friction-wedge presets 9e6-1.7e7 N/m, the
+#: polymer gear 4e6 N/m at rest to about 5e7 N/m near its travel), so that ``atol``
+#: reads as metres of that gear's deflection, as for the positions (1e-4 m -> 1 kN)
+GEAR_FORCE_SCALE = 1.0e7
 #: -: the vehicles' speeds enter the bs23 error norm with ``SPEED_SCALE x atol`` (atol 1e-4
 #: -> 1 mm/s). Their relative tolerance ``rtol |v|`` governs on the move; the absolute one
 #: matters only near standstill, where a tenfold tighter bound cut the steps by a third
@@ -99,6 +104,17 @@ class Lowered:
     # (creep.CREEP_PARAMS), slip-controller (creep.SLIP_PARAMS) and DM_* rows
     drive_of: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     drive_z: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    # the hysteretic gears' internal forces, for the bs23 error norm: the state index of
+    # each one's internal force F1 in y, and its coupler (run_adaptive measures the error
+    # of the force the gear exerts, kernel.Adaptive)
+    gear_f1: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    gear_of: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    # its movable plates' state in y (a friction-wedge gear without an S table; -1: none
+    # handled there), and whether its states relax in the slack to constant values only
+    # (1: run_adaptive may relax them exactly over a step spent in the slack; 0: a wedge
+    # gear with an S table, whose impact speed follows the closing speed)
+    gear_plate: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    gear_exact: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     drive_motor: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     drive_ctrl: np.ndarray = field(default_factory=lambda: np.zeros((0, 18)))
     drive_ws: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
@@ -165,10 +181,20 @@ def lower(s: Scenario) -> Lowered:
     # what each state is, for the bs23 error weights
     kinds = ["x"] * n + ["speed"] * n
     nz = 0
+    gear_f1: list[int] = []
+    gear_of: list[int] = []
+    gear_plate: list[int] = []
+    gear_exact: list[int] = []
     for i in range(nc):
         one = lower_coupler(s.coupler(i), tables, sign0=sign0, state_offset=nz)
         cpl_model[i] = one.code
         cpl[i] = one.row
+        if one.states:  # a hysteretic gear: its internal force F1 comes first
+            gear_f1.append(2 * n + nz)
+            gear_of.append(i)
+            exact = one.states in (("force",), ("force", "x"))  # (no impact speed)
+            gear_plate.append(2 * n + nz + 1 if one.states == ("force", "x") else -1)
+            gear_exact.append(int(exact))
         nz += len(one.states)
         kinds += one.states
         y0_extra += one.y0
@@ -332,6 +358,7 @@ def lower(s: Scenario) -> Lowered:
     scale.update({"flux": sv.atol, "volt": sv.atol * VOLT_SCALE,
                   "omega": sv.atol, "torque": sv.atol * FORCE_SCALE})
     atol = np.array([scale[k] for k in kinds])
+    atol[gear_f1] = sv.atol * GEAR_FORCE_SCALE
     rtol = np.array([0.0 if k in ("x", "exhausted") else sv.rtol for k in kinds])
     return Lowered(
         veh=veh, cons=cons, cpl_model=cpl_model, cpl=cpl,
@@ -343,6 +370,9 @@ def lower(s: Scenario) -> Lowered:
         n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
         atol=atol, rtol=rtol, max_step=float(sv.max_step),
         air_max_step=float(sv.air_max_step), adaptive=sv.adaptive,
+        gear_f1=np.array(gear_f1, dtype=np.int64), gear_of=np.array(gear_of, dtype=np.int64),
+        gear_plate=np.array(gear_plate, dtype=np.int64),
+        gear_exact=np.array(gear_exact, dtype=np.int64),
         **fluid_extra, **_drive_fields(drive_rows, len(consists)),
     )
 

@@ -116,7 +116,9 @@ class Solver(_Strict):
                                     "travel, brake fill and the fluid brake's valve "
                                     "positions, m and m/s (vehicle speeds use atol x 10: "
                                     "1e-4 means 1 mm/s; force states atol x 1e6 N/m: "
-                                    "1e-6 means 1 N; the fluid brake's pressures atol x 1e6 "
+                                    "1e-6 means 1 N, a draft gear's internal force atol x "
+                                    "1e7 N/m on the force it exerts; the fluid brake's "
+                                    "pressures atol x 1e6 "
                                     "Pa/m, 1 Pa, and pipe flows atol x 10 kg/(s m), 1e-5 "
                                     "kg/s)")
     max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23: largest step, s")

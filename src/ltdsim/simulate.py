@@ -316,10 +316,15 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
                                air_steps=low.adaptive and low.fluid,
                                drives=low.drive_z.size), out)
     if low.adaptive:
+        err_atol = low.atol.copy()
+        err_atol[low.gear_f1] = np.inf
+        err_atol[low.gear_plate[low.gear_plate >= 0]] = np.inf
         grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
                                h_max=low.max_step,
                                air_h_max=low.air_max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
-                               b=tab.b, c=tab.c, e=tab.e)
+                               b=tab.b, c=tab.c, e=tab.e, err_atol=err_atol,
+                               gear_f1=low.gear_f1, gear_of=low.gear_of,
+                               gear_plate=low.gear_plate, gear_exact=low.gear_exact)
     else:
         grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
                                 A=tab.A, b=tab.b, c=tab.c)
