@@ -4,7 +4,12 @@ coupler (same process, interleaved rounds, medians), and the model reduction's w
 With ``--instructions SECONDS`` it also counts, with valgrind's callgrind, the
 instructions the kernel executes (inside numba's dispatcher call) over the first
 SECONDS of the study case with each coupler, a measure the shared machine's load does
-not move. Under valgrind numba sees another CPU (valgrind runs no AVX-512) and would
+not move, and the conditional branches its simulated branch predictor
+(``--branch-sim=yes``) guesses wrong: this machine's hardware counters cannot be read
+(``perf stat`` is not supported here), and a mispredicted branch costs some 15-20
+cycles, so two codes with the same instructions can differ in time by them. The
+simulated predictor is a simple one (a table of two-bit counters), not the CPU's:
+its counts compare codes, they do not give the hardware's rate. Under valgrind numba sees another CPU (valgrind runs no AVX-512) and would
 compile the kernels again, for an hour; so each case is first run natively with its
 kernels compiled for a fixed CPU (``NUMBA_CPU_NAME=haswell``: AVX2, which valgrind
 runs) into a fresh cache of its own, from which the counted child loads them. The
@@ -30,6 +35,7 @@ from pathlib import Path
 from _results import publish
 
 import ltdsim
+from ltdsim.lowering import lower
 from ltdsim.reduce import reduce_gear
 from ltdsim.scenario import CouplerParams
 
@@ -77,8 +83,9 @@ if counted:
 
 
 def _instructions(cases, seconds: float) -> dict:
-    """Instructions (callgrind) of the kernel over the first ``seconds`` of the study
-    case, per case (see the module text for the fixed CPU)."""
+    """Callgrind's counts of the kernel over the first ``seconds`` of the study case,
+    per case: ``{event: count}`` with instructions ``Ir``, conditional branches ``Bc``
+    and their simulated mispredictions ``Bcm`` (see the module text)."""
     if shutil.which("valgrind") is None:
         raise SystemExit("--instructions: valgrind is not installed")
     work = Path(tempfile.mkdtemp(prefix="ltdsim-draftgear-"))
@@ -92,14 +99,18 @@ def _instructions(cases, seconds: float) -> dict:
                            check=True, capture_output=True)  # compile into the cache
             out = work / f"callgrind-{name}.out"
             proc = subprocess.run(
-                ["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                ["valgrind", "--tool=callgrind", "--branch-sim=yes", "--instr-atstart=no",
                  "--toggle-collect=*call_cfunc*", f"--callgrind-out-file={out}",
                  sys.executable, "-c", _COUNT, *args, "1", str(PAPER)],
                 env=env, capture_output=True, text=True)
             if proc.returncode != 0:
                 raise SystemExit(f"callgrind of {name} failed:\n{proc.stderr[-2000:]}")
-            counts[name] = int(re.search(r"^totals: (\d+)", out.read_text(), re.M).group(1))
-            print(f"  {name}: {counts[name] / 1e9:.3f} G instructions", flush=True)
+            text = out.read_text()
+            events = re.search(r"^events: (.*)$", text, re.M).group(1).split()
+            totals = re.search(r"^totals: (.*)$", text, re.M).group(1).split()
+            counts[name] = dict(zip(events, (int(t) for t in totals)))
+            print(f"  {name}: {counts[name]['Ir'] / 1e9:.3f} G instructions, "
+                  f"{counts[name]['Bcm'] / 1e6:.2f} M mispredicted branches", flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return counts
@@ -150,11 +161,21 @@ def main(argv=None) -> dict:
         print(f"counting instructions over the first {args.instructions:g} s (callgrind)",
               flush=True)
         counts = _instructions(scenarios, args.instructions)
+        # coupler evaluations in those seconds: 3 stages (ode3) per step, every coupler
+        n_eval = 3 * round(args.instructions / base.solver.dt) * (len(lower(base).cpl))
         for name, count in counts.items():
             label = "simplified coupler (LHHL)" if name == "simplified" else name
             rows.append((f"{label}, instructions in {args.instructions:g} s",
-                         f"{count / 1e9:.3f} G", f"{count / counts['simplified']:.2f}x"))
-        results["instructions"] = counts
+                         f"{count['Ir'] / 1e9:.3f} G",
+                         f"{count['Ir'] / counts['simplified']['Ir']:.2f}x"))
+        for name, count in counts.items():
+            label = "simplified coupler (LHHL)" if name == "simplified" else name
+            rows.append((f"{label}, mispredicted branches in {args.instructions:g} s",
+                         f"{count['Bcm'] / 1e6:.1f} M",
+                         f"{count['Bcm'] / n_eval:.2f} per coupler evaluation"))
+        results["instructions"] = {k: c["Ir"] for k, c in counts.items()}
+        results["callgrind"] = counts
+        results["coupler_evaluations"] = n_eval
         results["instructions_seconds"] = args.instructions
     for preset in (() if args.no_reduce else presets):
         t0 = time.perf_counter()
@@ -171,7 +192,9 @@ def main(argv=None) -> dict:
             f"{args.repeats} rounds of one run each after a warm-up; ratios within a round, "
             f"medians over the rounds"
             + ("" if args.instructions <= 0.0 else
-               "; instructions counted by callgrind in the kernel compiled for haswell")
+               "; instructions and mispredicted conditional branches counted by "
+               "callgrind (its simulated branch predictor) in the kernel compiled for "
+               "haswell")
             , rows,
             columns=("quantity", "value", "ratio / note"), result=results)
     return results

@@ -250,7 +250,9 @@ def plates_out(p, ramp):
 @njit(cache=True, inline="always")
 def plates_carried(u, p, delta):
     """Is the returning spring seat carrying the plates home (backlash ``delta``, m)?"""
-    return p > PLATE_TOL and u <= p - delta + PLATE_TOL
+    # (``&``, not ``and``: both tests are made and combined without a jump; which way
+    # such a jump goes depends on the data and the processor guesses it wrong often)
+    return (p > PLATE_TOL) & (u <= p - delta + PLATE_TOL)
 
 
 @njit(cache=True, inline="always")
@@ -261,15 +263,18 @@ def plate_rate(u, p, v, delta, rate):
     lo = u if u > 0.0 else 0.0
     up = u + delta
     hi = up if up > 0.0 else 0.0
-    dp = 0.0
-    if v > 0.0 and plates_pushed(u, p):
-        dp = v
-    elif v < 0.0 and plates_carried(u, p, delta):
-        dp = v
+    # Without jumps: the direction of motion flips at every reversal of the gear, and
+    # a jump on it (or on the plates' contacts) is the wedge gear's most often
+    # mispredicted one; both conditions are evaluated in full (``&``, ``|``) and the
+    # rate is selected, every result bit as with the jumps.
+    moves = ((v > 0.0) & plates_pushed(u, p)) | ((v < 0.0) & plates_carried(u, p, delta))
+    dp = v if moves else 0.0
     gap = min(max(p, lo), hi) - p
     # (within 1e-12 m of its band the pull stops: an endless exponential decay to 0
-    # would end in subnormal numbers, which cost a hundred times a normal operation)
-    return dp + rate * gap if abs(gap) > 1e-12 else dp
+    # would end in subnormal numbers, which cost a hundred times a normal operation;
+    # dp + 0.0 is dp bit for bit, as dp is never -0.0)
+    pull = rate * gap if abs(gap) > 1e-12 else 0.0
+    return dp + pull
 
 
 @njit(cache=True)
