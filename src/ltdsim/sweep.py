@@ -357,20 +357,21 @@ def check_sweep_memory(sweep: Sweep, source: str, workers: int | None = None) ->
 
 
 # ---------------------------------------------------------------------- one case
-def case_summary(ds) -> dict:
+def case_summary(ds, scenario: Scenario | None = None) -> dict:
     """Per-case numbers: RMS speed error (m/s), max tension and compression per coupler
     (N; over the recorded samples, or over every step where a run did not record
     coupler_force), max |acceleration| per vehicle (m/s^2; NaN where not recorded), peak
-    traction (N), wheel-slip samples."""
-    from ltdsim.summary import run_summary
+    traction (N), wheel-slip samples. ``scenario`` made ``ds`` (by default read from
+    the result)."""
+    from ltdsim.summary import column_max, column_min, run_summary
 
     if "coupler_force" in ds:
         f = ds.coupler_force.values
-        top, low = f.max(axis=0), f.min(axis=0)
+        top, low = column_max(f), column_min(f)
     else:  # solver.record left it out: the peaks over every step
         top, low = ds.max_coupler_force.values, ds.min_coupler_force.values
-    s = run_summary(ds)
-    acc = (np.abs(ds.acceleration.values).max(axis=0) if "acceleration" in ds
+    s = run_summary(ds, scenario)
+    acc = (column_max(np.abs(ds.acceleration.values)) if "acceleration" in ds
            else np.full(ds.sizes["vehicle"], np.nan))
     return {
         "rms_speed_error_m_s": s["rms_speed_error_m_s"],
@@ -398,7 +399,7 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
     try:
         sc = Scenario.from_dict(scenario_dict, f"case {case_id}")
         ds = simulate(sc)
-        record["summary"] = case_summary(ds)
+        record["summary"] = case_summary(ds, sc)
         try:
             norms = phase_norms(ds, sc)
             record["phase_norms"] = {k: v.values.tolist() for k, v in norms.data_vars.items()}
