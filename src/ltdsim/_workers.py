@@ -38,14 +38,13 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack, contextmanager
-from typing import ContextManager
+from contextlib import AbstractContextManager, ExitStack, contextmanager
 
 #: seconds between two looks at the parent's pid in the watcher thread
 WATCH_INTERVAL = 0.5
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 #: ``pause()`` context managers of threads this process runs (see :func:`pause_for_fork`)
-_PAUSERS: list[Callable[[], ContextManager]] = []
+_PAUSERS: list[Callable[[], AbstractContextManager]] = []
 
 
 def _die_with_parent_linux() -> bool:
@@ -79,7 +78,7 @@ def init_worker(parent: int) -> None:
 
 
 @contextmanager
-def pause_for_fork(pause: Callable[[], ContextManager]) -> Iterator[None]:
+def pause_for_fork(pause: Callable[[], AbstractContextManager]) -> Iterator[None]:
     """While open, ``pause()`` (a context manager that stops one of this process's
     threads and starts it again on exit) is entered around every fork of a sweep's
     workers, so that the fork happens with no other thread running."""
@@ -111,7 +110,7 @@ def process_executor(workers: int | None, fork: bool = False) -> cf.ProcessPoolE
     n = workers or os.cpu_count()
     if fork:
         with ExitStack() as paused:
-            for pause in list(_PAUSERS):
+            for pause in _PAUSERS:
                 paused.enter_context(pause())
             if fork_safe():
                 ex = cf.ProcessPoolExecutor(max_workers=n,
