@@ -13,7 +13,8 @@ from numpy.testing import assert_allclose
 from ltdsim.diagnostics import (
     base_run_diagnostics, closed_loop_modes, cruise_window, oscillation, reference_corners,
 )
-from ltdsim.summary import gear_travel_check, run_summary, travel_warning
+from ltdsim.summary import (column_max, column_min, gear_travel_check, run_summary,
+                             travel_warning)
 
 from conftest import build, train_dict
 
@@ -200,3 +201,17 @@ def test_the_linearised_closed_loop_predicts_the_ring_and_its_cure_in_the_study_
 def _window(ds, a, b):
     w = ds.sel(time=slice(a, b))
     return w.time.values, w.traction_force.values
+
+
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(1, 700), cols=st.integers(0, 12), seed=st.integers(0, 2**32 - 1),
+       nan=st.booleans(), step=st.sampled_from([1, 2]))
+def test_column_peaks_equal_numpys_reduction_over_rows(rows, cols, seed, nan, step):
+    """column_max / column_min (blocks of rows first) give exactly numpy's max / min over
+    axis 0, NaN included, also for fewer rows than a block, no columns, a strided view."""
+    rng = np.random.default_rng(seed)
+    x = rng.normal(scale=1e5, size=(rows, cols * step))[:, ::step]
+    if nan and x.size:
+        x[rng.integers(rows), rng.integers(cols)] = np.nan
+    np.testing.assert_array_equal(column_max(x), x.max(axis=0))
+    np.testing.assert_array_equal(column_min(x), x.min(axis=0))

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
 
 from rich.console import Console
 from rich.markup import escape
@@ -20,6 +21,8 @@ from rich.text import Text
 
 #: what the compile line says (the kernels are kept in numba's cache afterwards)
 COMPILING = "compiling (first run only)"
+#: seconds between two redraws of the live display (rich's default: 10 per second)
+REDRAW_INTERVAL = 0.1
 
 
 class _Remaining(TimeRemainingColumn):
@@ -41,6 +44,10 @@ class Display:
     * :meth:`note` prints a line that must be read (damaged state being recomputed).
 
     Nothing is shown when ``quiet``.
+
+    The live display is redrawn by a thread of its own (not rich's), which stops while
+    a sweep forks its workers (:func:`ltdsim._workers.pause_for_fork`): a process is
+    forked only while no other thread runs in it.
     """
 
     def __init__(self, console: Console, *, quiet: bool = False, interval: float = 10.0):
@@ -56,20 +63,57 @@ class Display:
         self._stage_t0 = 0.0
         self._pending = None  # the stage's latest message, when not yet in the log
         self._last_line = {}  # key -> time of its last log line
+        self._redraw: tuple[threading.Thread, threading.Event] | None = None
+        self._stack = ExitStack()
 
     # ------------------------------------------------------------------ plumbing
     def __enter__(self) -> Display:
         if self.live:
+            from ltdsim._workers import pause_for_fork
+
             self._progress = Progress(
                 TextColumn("[bold]{task.description}"), BarColumn(bar_width=20),
                 TextColumn("{task.fields[info]}"), TimeElapsedColumn(), _Remaining(),
-                console=self.console, transient=False)
+                console=self.console, transient=False, auto_refresh=False)
             self._progress.__enter__()
+            self._start_redraw()
+            self._stack.enter_context(pause_for_fork(self._paused))
         return self
 
     def __exit__(self, *exc) -> None:
+        self._stack.close()
+        self._stop_redraw()
         if self._progress is not None:
             self._progress.__exit__(*exc)
+
+    def _start_redraw(self) -> None:
+        stop = threading.Event()
+
+        def redraw():
+            while not stop.wait(REDRAW_INTERVAL):
+                self._progress.refresh()
+
+        thread = threading.Thread(target=redraw, name="ltdsim-progress-redraw", daemon=True)
+        self._redraw = (thread, stop)
+        thread.start()
+
+    def _stop_redraw(self) -> None:
+        if self._redraw is not None:
+            thread, stop = self._redraw
+            stop.set()
+            thread.join()
+            self._redraw = None
+
+    @contextmanager
+    def _paused(self) -> Iterator[None]:
+        """No redraw thread while open (a sweep forks its workers meanwhile)."""
+        running = self._redraw is not None
+        self._stop_redraw()
+        try:
+            yield
+        finally:
+            if running:
+                self._start_redraw()
 
     def log(self, text: str) -> None:
         """One timestamped line (log mode only)."""

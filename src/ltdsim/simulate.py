@@ -440,8 +440,10 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         data["velocity"] = (vdims, vel)
     if "a" in keep:
         data["acceleration"] = (vdims, rec["a"])
-    if "x" in keep:
-        data["relative_position"] = (vdims, position - position[:, :1] - (p0 - p0[0]))
+    if "x" in keep:  # position - position[:, :1] - (p0 - p0[0]), with one temporary less
+        rel = np.subtract(position, position[:, :1])
+        rel -= p0 - p0[0]
+        data["relative_position"] = (vdims, rel)
     if "v" in keep:
         data["relative_velocity"] = (vdims, vel - vel[:, :1])
     if "d" in keep:

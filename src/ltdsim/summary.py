@@ -11,6 +11,34 @@ import xarray as xr
 #: m: rating travel of an AAR M-901 draft gear of 3-1/4 in (82.55 mm), the reference
 #: against which gears without a stated travel (the study's simplified coupler) are checked
 REFERENCE_TRAVEL = 0.083
+#: rows per block in :func:`column_max` and :func:`column_min`
+_BLOCK_ROWS = 64
+
+
+def _by_column(ufunc: np.ufunc, x: np.ndarray) -> np.ndarray:
+    """``ufunc.reduce(x, axis=0)`` for ``np.maximum`` or ``np.minimum`` over the rows of
+    a 2-D array (time x couplers or vehicles): the same numbers (a maximum or minimum
+    does not round, whatever the order), about ten times faster for a few columns and
+    many rows. numpy reduces such an array a few elements (one row) at a time; here each
+    block of :data:`_BLOCK_ROWS` rows is reduced as one long contiguous row first, then
+    the blocks are reduced."""
+    n, k = x.shape
+    q = n // _BLOCK_ROWS * _BLOCK_ROWS
+    if k == 0 or q == 0:
+        return ufunc.reduce(x, axis=0)
+    blocks = ufunc.reduce(np.ascontiguousarray(x[:q]).reshape(-1, _BLOCK_ROWS * k), axis=0)
+    out = ufunc.reduce(blocks.reshape(_BLOCK_ROWS, k), axis=0)
+    return ufunc(out, ufunc.reduce(x[q:], axis=0)) if q < n else out
+
+
+def column_max(x: np.ndarray) -> np.ndarray:
+    """Largest value of each column of 2-D ``x`` (``x.max(axis=0)``, faster), in x's unit."""
+    return _by_column(np.maximum, x)
+
+
+def column_min(x: np.ndarray) -> np.ndarray:
+    """Smallest value of each column of 2-D ``x`` (``x.min(axis=0)``, faster), in x's unit."""
+    return _by_column(np.minimum, x)
 
 
 def coupler_summary(ds: xr.Dataset) -> pd.DataFrame:
@@ -43,18 +71,19 @@ def critical_rows(table: pd.DataFrame, limit: int = 20) -> pd.DataFrame:
     return table.loc[worst.nlargest(limit).index].sort_index()
 
 
-def run_summary(ds: xr.Dataset) -> dict[str, float]:
+def run_summary(ds: xr.Dataset, scenario=None) -> dict[str, float]:
     """Scalar facts of a run: RMS and max speed error (m/s), max |acceleration| (m/s^2),
     peak traction (N), whether traction ever exceeded adhesion, the largest gear
     deflection beyond the slack (m) and how many couplers exceed their travel (or the
     reference travel, :func:`gear_travel_check`). What a run did not record
-    (``solver.record``) is NaN, or left out for the gears."""
+    (``solver.record``) is NaN, or left out for the gears. ``scenario`` is the one that
+    made ``ds`` (by default read from the result)."""
     err = ds.speed_error.values if "speed_error" in ds else np.zeros(0)
     finite = np.isfinite(err)
     gears = {}
-    if ("scenario_json" in ds.attrs and ds.sizes.get("coupler", 0)
+    if ((scenario is not None or "scenario_json" in ds.attrs) and ds.sizes.get("coupler", 0)
             and "coupler_deflection" in ds):
-        table = gear_travel_check(ds)
+        table = gear_travel_check(ds, scenario)
         gears = {"max_gear_deflection_m": float(table.max_deflection_m.max()),
                  "couplers_beyond_travel": int(table.exceeds.sum())}
     return {
@@ -172,8 +201,8 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
     stated = np.array([c.travel is not None for c in params], dtype=bool)
     travel = np.array([c.travel if c.travel is not None else reference_travel for c in params])
     if d.shape[0]:
-        draft = np.clip(d.max(axis=0) - half, 0.0, None)
-        buff = np.clip(-d.min(axis=0) - half, 0.0, None)
+        draft = np.clip(column_max(d) - half, 0.0, None)
+        buff = np.clip(-column_min(d) - half, 0.0, None)
     else:
         draft = buff = np.zeros(nc)
     largest = np.maximum(draft, buff)

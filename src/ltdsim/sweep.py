@@ -357,20 +357,21 @@ def check_sweep_memory(sweep: Sweep, source: str, workers: int | None = None) ->
 
 
 # ---------------------------------------------------------------------- one case
-def case_summary(ds) -> dict:
+def case_summary(ds, scenario: Scenario | None = None) -> dict:
     """Per-case numbers: RMS speed error (m/s), max tension and compression per coupler
     (N; over the recorded samples, or over every step where a run did not record
     coupler_force), max |acceleration| per vehicle (m/s^2; NaN where not recorded), peak
-    traction (N), wheel-slip samples."""
-    from ltdsim.summary import run_summary
+    traction (N), wheel-slip samples. ``scenario`` made ``ds`` (by default read from
+    the result)."""
+    from ltdsim.summary import column_max, column_min, run_summary
 
     if "coupler_force" in ds:
         f = ds.coupler_force.values
-        top, low = f.max(axis=0), f.min(axis=0)
+        top, low = column_max(f), column_min(f)
     else:  # solver.record left it out: the peaks over every step
         top, low = ds.max_coupler_force.values, ds.min_coupler_force.values
-    s = run_summary(ds)
-    acc = (np.abs(ds.acceleration.values).max(axis=0) if "acceleration" in ds
+    s = run_summary(ds, scenario)
+    acc = (column_max(np.abs(ds.acceleration.values)) if "acceleration" in ds
            else np.full(ds.sizes["vehicle"], np.nan))
     return {
         "rms_speed_error_m_s": s["rms_speed_error_m_s"],
@@ -398,7 +399,7 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
     try:
         sc = Scenario.from_dict(scenario_dict, f"case {case_id}")
         ds = simulate(sc)
-        record["summary"] = case_summary(ds)
+        record["summary"] = case_summary(ds, sc)
         try:
             norms = phase_norms(ds, sc)
             record["phase_norms"] = {k: v.values.tolist() for k, v in norms.data_vars.items()}
@@ -552,9 +553,13 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
     time series that is unreadable, truncated, emptied, deleted or altered is reported
     and its case run again.
 
-    On local processes the kernels the cases need are compiled (or loaded) here before
-    the workers start, so that each worker loads them from numba's cache instead of
-    compiling the same kernel at the same time.
+    On local processes the kernels the cases need are compiled here, if not cached yet,
+    before the workers start, so that no two workers compile the same kernel at the
+    same time. Where the workers are forked (Linux, see
+    :func:`ltdsim._workers.process_executor`), this process also loads the kernels and
+    rehearses a case in miniature first, so that every worker starts with the imports
+    and kernels a case needs instead of loading them again; elsewhere each spawned
+    worker loads them itself.
     """
     out = Path(out)
     (out / "cases").mkdir(parents=True, exist_ok=True)
@@ -563,12 +568,16 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
     todo = [c for c in sweep.cases if c.id not in skip]
     total = len(sweep.cases)
     done = len(skip)
-    if todo and not scheduler:
-        warm_cases(sweep, todo, on_compile)
+    local = bool(todo) and not scheduler
+    fork = local and fork_possible()
+    if local:
+        warm_cases(sweep, todo, on_compile, load=fork)
+    if fork:
+        rehearse(sweep.scenario(todo[0]))
     if progress is not None:
         progress(done, total, "")
     if todo:
-        executor, close = _executor(scheduler, workers)
+        executor, close = _executor(scheduler, workers, len(todo), fork)
         try:
             futures = {}
             for case in todo:
@@ -592,10 +601,11 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
     return summary_table(out, sweep)
 
 
-def warm_cases(sweep: Sweep, cases: list[Case], on_compile=None) -> float:
+def warm_cases(sweep: Sweep, cases: list[Case], on_compile=None, load: bool = False) -> float:
     """Compile the kernels ``cases`` need that are not in numba's on-disk cache yet;
-    returns the seconds spent compiling. Kernels already cached are not loaded here:
-    this process only hands the cases to the workers, which load them themselves.
+    returns the seconds spent compiling. Kernels already cached are loaded here only
+    with ``load`` (for workers forked from this process); otherwise this process only
+    hands the cases to the workers, which load them themselves.
 
     The kernel and its argument types depend on the solver (fixed-step or adaptive),
     not on the values, so one case of each kind stands for all."""
@@ -609,10 +619,33 @@ def warm_cases(sweep: Sweep, cases: list[Case], on_compile=None) -> float:
         calls = scenario_kernels(kinds.values())
     except LtdsimError:  # the case fails in its worker, with its own record
         return 0.0
-    return warm_up(calls, on_compile, load=False)
+    return warm_up(calls, on_compile, load=load)
 
 
-def _executor(scheduler, workers):
+def fork_possible() -> bool:
+    """True where a sweep's local workers are forked from this process (Linux, no other
+    thread than those registered to pause: see :mod:`ltdsim._workers`)."""
+    import multiprocessing
+    import sys
+
+    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
+
+
+def rehearse(scenario: Scenario) -> None:
+    """Run ``scenario`` for a few output samples through the worker's code
+    (:func:`run_case`), so that the modules a case imports on first use (the dataset's,
+    the summary's and the phase norms', among them xarray's check for dask arrays, about
+    0.25 s of CPU) are loaded in this process before its workers are forked from it.
+    Its record is not kept; a failure here is left for the real case to report."""
+    sv = scenario.solver
+    short = min(sv.t_end, 20 * sv.output_interval)
+    try:
+        run_case(scenario.with_overrides({"solver.t_end": short}).to_dict(), "rehearsal")
+    except LtdsimError:
+        pass
+
+
+def _executor(scheduler, workers, n_cases: int = 0, fork: bool = False):
     if scheduler:
         from distributed import Client
 
@@ -620,7 +653,10 @@ def _executor(scheduler, workers):
         return client.get_executor(), client.close
     from ltdsim._workers import process_executor
 
-    ex = process_executor(workers)  # its workers end when this process dies
+    n = workers or os.cpu_count() or 1
+    if n_cases:
+        n = min(n, n_cases)  # (a forking pool starts all its workers at once)
+    ex = process_executor(n, fork=fork)  # its workers end when this process dies
     return ex, lambda: ex.shutdown(wait=True, cancel_futures=True)
 
 
