@@ -40,7 +40,6 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -248,17 +247,7 @@ def _runs(cases, work: Path):
 
 def _child(work: Path, counted: bool) -> None:
     cases = pw._cases(work, native=not counted)
-    pid = str(os.getpid())
-    for i, (preset, label, call) in enumerate(_runs(cases, work)):
-        rec = cases[preset][2]
-        call(rec[:1000].copy())  # compile or load
-        if counted:
-            for cmd in (["-i", "on"], None, ["-i", "off"], [f"--dump=run{i}"]):
-                if cmd is None:
-                    call(rec)
-                else:
-                    subprocess.run(["callgrind_control", *cmd, pid], check=True,
-                                   capture_output=True)
+    pw.run_replays(_runs(cases, work), cases, counted)
 
 
 def main(argv=None) -> dict:
@@ -291,16 +280,7 @@ def main(argv=None) -> dict:
         n_rec = int(np.load(work / "rec-simplified.npy").shape[0])
         labels = [f"{p}|{l}" for p, l, _ in _runs(
             {p: (None, None, None, None) for p in pw.PRESETS}, work)]
-        counts = {}
-        for dump in work.glob("callgrind.out.*"):
-            text = dump.read_text()
-            m = re.search(r"^desc: Trigger:.*\brun(\d+)", text, re.M)
-            if m:
-                events = re.search(r"^events: (.*)$", text, re.M).group(1).split()
-                totals = re.search(r"^totals: (.*)$", text, re.M).group(1).split()
-                counts[labels[int(m.group(1))]] = dict(zip(events, map(int, totals)))
-        if len(counts) != len(labels):
-            raise SystemExit(f"found {len(counts)} of {len(labels)} callgrind dumps in {work}")
+        counts = pw.read_dumps(work, labels)
         done = True
     finally:
         if done:  # (kept for a look when something failed)

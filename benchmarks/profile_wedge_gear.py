@@ -257,12 +257,14 @@ def _runs(cases):
                 low.cpl, r, ys0.size, bit)
 
 
-def _child(work: Path, counted: bool) -> None:
-    cases = _cases(work, native=not counted)
-    if not counted:
-        (work / "shares.json").write_text(json.dumps({p: c[3] for p, c in cases.items()}))
+def run_replays(runs, cases, counted: bool) -> None:
+    """Call every replay of ``runs`` (``(preset, label, call)``, ``call`` taking the
+    preset's record from ``cases``) once on a short piece to compile or load it; with
+    ``counted`` (this process under callgrind) call it again on the whole record with
+    the instrumentation on, and dump its counts as ``run<i>`` (``i`` its place in
+    ``runs``)."""
     pid = str(os.getpid())
-    for i, (preset, label, call) in enumerate(_runs(cases)):
+    for i, (preset, label, call) in enumerate(runs):
         rec = cases[preset][2]
         call(rec[:1000].copy())  # compile or load
         if counted:
@@ -272,6 +274,29 @@ def _child(work: Path, counted: bool) -> None:
                 else:
                     subprocess.run(["callgrind_control", *cmd, pid], check=True,
                                    capture_output=True)
+
+
+def read_dumps(work: Path, labels: list[str]) -> dict:
+    """The counts of each replay from the callgrind dumps in ``work``: ``labels[i]`` (the
+    label of dump ``run<i>``) -> event name (``Ir``, ...) -> count."""
+    counts = {}
+    for dump in work.glob("callgrind.out.*"):
+        text = dump.read_text()
+        m = re.search(r"^desc: Trigger:.*\brun(\d+)", text, re.M)
+        if m:
+            events = re.search(r"^events: (.*)$", text, re.M).group(1).split()
+            totals = re.search(r"^totals: (.*)$", text, re.M).group(1).split()
+            counts[labels[int(m.group(1))]] = dict(zip(events, map(int, totals)))
+    if len(counts) != len(labels):
+        raise SystemExit(f"found {len(counts)} of {len(labels)} callgrind dumps in {work}")
+    return counts
+
+
+def _child(work: Path, counted: bool) -> None:
+    cases = _cases(work, native=not counted)
+    if not counted:
+        (work / "shares.json").write_text(json.dumps({p: c[3] for p, c in cases.items()}))
+    run_replays(_runs(cases), cases, counted)
 
 
 def main(argv=None) -> dict:
@@ -304,15 +329,7 @@ def main(argv=None) -> dict:
         n_rec = int(np.load(work / "rec-simplified.npy").shape[0])
         labels = [f"{preset}|{label}" for preset, label, _ in _runs(
             {p: (None, None, None, None) for p in PRESETS})]
-        counts = {}
-        for dump in work.glob("callgrind.out.*"):
-            text = dump.read_text()
-            m = re.search(r"^desc: Trigger:.*\brun(\d+)", text, re.M)
-            if m:
-                counts[labels[int(m.group(1))]] = int(
-                    re.search(r"^totals: (\d+)", text, re.M).group(1))
-        if len(counts) != len(labels):
-            raise SystemExit(f"found {len(counts)} of {len(labels)} callgrind dumps in {work}")
+        counts = {k: c["Ir"] for k, c in read_dumps(work, labels).items()}
         done = True
     finally:
         if done:  # (kept for a look when something failed)
