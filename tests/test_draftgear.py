@@ -315,11 +315,11 @@ def test_the_library_curves_are_equation_1_over_its_geometry_and_friction(
        share=st.floats(-0.5, 1.5), p=st.floats(0.0, 0.03), draft=st.booleans())
 def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
         preset, x, v, share, p, draft):
-    """The kernel computes a wedge gear's unloading curve only when the internal force
-    lies below the loading curve; its force is still Eq. 7, ``F1`` clipped between both
-    curves of :func:`wedge_curves` (solid closure on both, the unloading curve never
-    above the loading curve, never negative), for internal forces below, inside and
-    above the band, with the plates anywhere."""
+    """The kernel's force of a wedge gear in contact is Eq. 7: ``F1`` clipped between
+    both curves of :func:`wedge_curves` (solid closure on both, the unloading curve
+    never above the loading curve, never negative), for internal forces below, inside
+    and above the band, in draft and buff, with the plates anywhere (the plates on the
+    unloading curve only while the spring seat carries them)."""
     from ltdsim.coupler_models import (
         P_KSOLID, P_TRAVEL, W_BACK, W_C1, W_C2, W_C3, W_G, W_GAP, W_H1, W_H2, W_H3, W_KM,
         W_KR, W_S, W_TA, W_TB, W_TG, W_XM0, W_XR0, coupler_force, lower_coupler,

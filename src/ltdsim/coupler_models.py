@@ -33,26 +33,18 @@ import numpy as np
 from numba import njit
 
 from ltdsim.layout import layout
-from ltdsim.physics.couplers import (
-    gear_deflection,
-    linear_force,
-    simplified_force,
-    solid_closure,
-)
+from ltdsim.physics.couplers import gear_deflection, linear_force, simplified_force
 from ltdsim.physics.draftgear import (
-    gear_band,
-    gear_loaded,
+    gear_force,
     plate_rate,
     plates_carried,
     plates_out,
     relax,
     s_table_lookup,
-    solid_curve,
     table_curve,
-    wedge_loading,
-    wedge_unloading,
+    wedge_curves,
 )
-from ltdsim.physics.polymer import polymer_loading, polymer_unloading
+from ltdsim.physics.polymer import polymer_curves
 
 # ------------------------------------------------------------------ table layout
 #: columns every coupler row has: total slack m, initial deflection (offset added to
@@ -144,13 +136,6 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
             dy[dzo + 2] = relax(y[zo + 2], abs(dd), rate)
         return 0.0
     v = sgn * dd  # > 0 while the gear closes
-    ksolid = cpl[j, P_KSOLID]
-    solid = solid_closure(x, cpl[j, P_TRAVEL], ksolid)
-    # the loading curve first: a gear on it (where gears mostly are) needs nothing of
-    # the unloading curve, which is computed only when F1 lies below the loading curve
-    # (what the wedge gear's unloading curve shares with its loading curve is kept)
-    mu1 = mu2 = mu3 = fsm = fsr = dsr = fst = sst = 0.0
-    u = p = delta = engaged = 0.0
     if wedge:
         p = y[zo + 1]
         gap = cpl[j, W_GAP]
@@ -164,36 +149,22 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
         u = x - gap
         ramp = max(delta, 1e-3)  # plate friction fades in and out over this travel, m
         engaged = plates_out(p, ramp)
-        f_l, s_l, mu1, mu2, mu3, fsm, fsr, dsr = wedge_loading(
+        f_l, f_u, s_l, s_u = wedge_curves(
             x, v, cpl[j, W_TA], cpl[j, W_TB], cpl[j, W_TG], cpl[j, W_G], cpl[j, W_C1],
             cpl[j, W_C2], cpl[j, W_C3], cpl[j, W_H1], cpl[j, W_H2], cpl[j, W_H3], s_factor,
-            cpl[j, W_KM], cpl[j, W_XM0], cpl[j, W_KR], cpl[j, W_XR0], engaged)
+            cpl[j, W_KM], cpl[j, W_XM0], cpl[j, W_KR], cpl[j, W_XR0], engaged,
+            engaged if plates_carried(u, p, delta) else 0.0)
     elif model == M_TABLE:
         f_l, s_l = table_curve(ctab, int(cpl[j, TAB_LOAD]), int(cpl[j, TAB_NLOAD]), x)
+        f_u, s_u = table_curve(ctab, int(cpl[j, TAB_UNL]), int(cpl[j, TAB_NUNL]), x)
     elif model == M_POLYMER:
-        f_l, s_l, fst, sst = polymer_loading(
+        f_l, f_u, s_l, s_u = polymer_curves(
             x, v, cpl[j, POL_P], cpl[j, POL_K0], cpl[j, POL_FX], cpl[j, P_TRAVEL],
-            cpl[j, POL_N], cpl[j, POL_AL], cpl[j, POL_VR])
+            cpl[j, POL_N], cpl[j, POL_R], cpl[j, POL_AL], cpl[j, POL_AU], cpl[j, POL_VR])
     else:  # (no other hysteretic model: lowering gives only known codes)
-        f_l = s_l = 0.0
-    f_l, s_l = solid_curve(f_l, s_l, solid, ksolid)
-    if f1 >= f_l:  # on the loading curve (also where the curves meet)
-        f, df1 = gear_loaded(f1, f_l, s_l, v, cpl[j, HYS_KLOCK], rate)
-    else:
-        if wedge:
-            f_u, s_u = wedge_unloading(
-                v, cpl[j, W_TA], cpl[j, W_TB], cpl[j, W_TG], cpl[j, W_G], cpl[j, W_H1],
-                cpl[j, W_H2], cpl[j, W_H3], cpl[j, W_KM], mu1, mu2, mu3, fsm, fsr, dsr,
-                engaged if plates_carried(u, p, delta) else 0.0)
-        elif model == M_TABLE:
-            f_u, s_u = table_curve(ctab, int(cpl[j, TAB_UNL]), int(cpl[j, TAB_NUNL]), x)
-        elif model == M_POLYMER:
-            f_u, s_u = polymer_unloading(v, fst, sst, cpl[j, POL_R], cpl[j, POL_AU],
-                                         cpl[j, POL_VR])
-        else:
-            f_u = s_u = 0.0
-        f_u, s_u = solid_curve(f_u, s_u, solid, ksolid)
-        f, df1 = gear_band(f1, f_l, f_u, s_l, s_u, v, cpl[j, HYS_KLOCK], rate)
+        f_l = f_u = s_l = s_u = 0.0
+    f, df1 = gear_force(f1, f_l, f_u, s_l, s_u, v, x, cpl[j, P_TRAVEL], cpl[j, P_KSOLID],
+                        cpl[j, HYS_KLOCK], rate)
     dy[dzo] = df1
     if wedge:
         dy[dzo + 1] = plate_rate(x - cpl[j, W_GAP], y[zo + 1], v, cpl[j, W_BACK], rate)

@@ -124,28 +124,25 @@ def _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates, mu4, loading):
 
 
 @njit(cache=True, inline="always")
-def wedge_loading(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r,
-                  x_r0, plates_loading):
-    """Loading force ``f_l`` of the wedge gear at ``x`` (N), its slope ``df_l/dx`` (N/m),
-    and what the unloading curve (:func:`wedge_unloading`) shares with it.
+def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r,
+                 x_r0, plates_loading, plates_unloading):
+    """Loading and unloading forces ``(f_l, f_u)`` of the wedge gear at ``x`` (N) and
+    their slopes ``(df_l/dx, df_u/dx)`` (N/m).
 
-    Returns ``(f_l, s_l, mu1, mu2, mu3, F_sm, F_sr, dF_sr/dx)``: the friction
-    coefficients of the three wedge faces (-, ``mu1`` with the lubrication factor
-    ``s_factor``), the spring forces (N) and the release spring's slope (N/m). ``v`` is
-    the gear speed magnitude, m/s; ``plates_loading`` (0-1) says how far the movable
-    plates take part (stage 2): their friction coefficient mu4 is scaled by it, so the
-    curve changes continuously as the plates engage and disengage. A gear on its
-    loading curve needs nothing of the unloading curve, so that one is computed apart
-    and only where it is needed.
+    ``v`` is the gear speed magnitude, m/s; ``plates_loading`` / ``plates_unloading``
+    (0-1) say how far the movable plates take part (stage 2 / stage 4) on each curve:
+    their friction coefficient mu4 is scaled by it, so the curves change continuously as
+    the plates engage and disengage.
     """
     s = abs(v)
     # the exponents h3 |v_i| (s/m times m/s) of the friction laws at the sliding speeds
-    # v1..v3 (paper Eq. 4) and at the plates' speed s on loading
+    # v1..v3 (paper Eq. 4) and at the plates' speeds s (loading) and G s (unloading)
     z1 = h3 * abs(c1 * s)
     z2 = h3 * abs(c2 * s)
     z3 = h3 * abs(c3 * s)
     z4 = h3 * abs(s)
-    if 0.0 <= max(max(z1, z2), max(z3, z4)) < HEAD_LIMIT:
+    z5 = h3 * abs(big_g * s)
+    if 0.0 <= max(max(max(z1, z2), max(z3, z4)), z5) < HEAD_LIMIT:
         # all small (the gear's usual state): each exponential is the series' head,
         # bit for bit what friction_coefficient gives, with one test for all of them
         # instead of one per law
@@ -153,56 +150,24 @@ def wedge_loading(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m
         mu2 = h1 + h2 * series_head(z2)
         mu3 = h1 + h2 * series_head(z3)
         mu4l = h1 + h2 * series_head(z4) if plates_loading > 0.0 else 0.0
+        mu4u = h1 + h2 * series_head(z5) if plates_unloading > 0.0 else 0.0
     else:
         mu1 = friction_coefficient(h1, h2, h3, c1 * s) * s_factor
         mu2 = friction_coefficient(h1, h2, h3, c2 * s)
         mu3 = friction_coefficient(h1, h2, h3, c3 * s)
         mu4l = friction_coefficient(h1, h2, h3, s) if plates_loading > 0.0 else 0.0
+        mu4u = friction_coefficient(h1, h2, h3, big_g * s) if plates_unloading > 0.0 else 0.0
     nl, dl = _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates_loading, mu4l, True)
-    pl = nl / dl
+    nu, du = _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates_unloading, mu4u, False)
+    # both quotients with one division
+    r = 1.0 / (dl * du)
+    pl = nl * du * r
+    pu = nu * dl * r
     fsm, fsr = spring_forces(x, big_g, k_m, x_m0, k_r, x_r0)
     dsm = k_m * big_g  # d F_sm / dx
     dsr = -k_r * (big_g - 1.0) if fsr > 0.0 else 0.0  # d F_sr / dx
-    return (pl * fsm - (pl - 1.0) * fsr, pl * dsm - (pl - 1.0) * dsr,
-            mu1, mu2, mu3, fsm, fsr, dsr)
-
-
-@njit(cache=True, inline="always")
-def wedge_unloading(v, ta, tb, tg, big_g, h1, h2, h3, k_m, mu1, mu2, mu3, fsm, fsr, dsr,
-                    plates_unloading):
-    """Unloading force ``f_u`` of the wedge gear (N) and its slope ``df_u/dx`` (N/m),
-    from what :func:`wedge_loading` returned at the same place (``mu1..mu3`` -, the
-    spring forces ``fsm``, ``fsr`` N, ``dsr`` N/m).
-
-    ``v`` is the gear speed magnitude, m/s: the plates slide at ``G |v|`` on unloading;
-    ``plates_unloading`` (0-1) says how far they take part (stage 4).
-    """
-    mu4u = friction_coefficient(h1, h2, h3, big_g * abs(v)) if plates_unloading > 0.0 \
-        else 0.0
-    nu, du = _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates_unloading, mu4u, False)
-    pu = nu / du
-    dsm = k_m * big_g  # d F_sm / dx
-    return pu * fsm - (pu - 1.0) * fsr, pu * dsm - (pu - 1.0) * dsr
-
-
-@njit(cache=True, inline="always")
-def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r,
-                 x_r0, plates_loading, plates_unloading):
-    """Loading and unloading forces ``(f_l, f_u)`` of the wedge gear at ``x`` (N) and
-    their slopes ``(df_l/dx, df_u/dx)`` (N/m): :func:`wedge_loading` and
-    :func:`wedge_unloading` together, bit for bit what the kernel takes.
-
-    ``v`` is the gear speed magnitude, m/s; ``plates_loading`` / ``plates_unloading``
-    (0-1) say how far the movable plates take part (stage 2 / stage 4) on each curve:
-    their friction coefficient mu4 is scaled by it, so the curves change continuously as
-    the plates engage and disengage.
-    """
-    f_l, s_l, mu1, mu2, mu3, fsm, fsr, dsr = wedge_loading(
-        x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r, x_r0,
-        plates_loading)
-    f_u, s_u = wedge_unloading(v, ta, tb, tg, big_g, h1, h2, h3, k_m, mu1, mu2, mu3, fsm,
-                               fsr, dsr, plates_unloading)
-    return f_l, f_u, s_l, s_u
+    return (pl * fsm - (pl - 1.0) * fsr, pu * fsm - (pu - 1.0) * fsr,
+            pl * dsm - (pl - 1.0) * dsr, pu * dsm - (pu - 1.0) * dsr)
 
 
 @njit(cache=True, inline="always")
@@ -235,41 +200,6 @@ def relax(z, z_rest, rate):
 
 
 @njit(cache=True, inline="always")
-def solid_curve(f, s, solid, solid_stiffness):
-    """A gear curve's force ``f`` (N) and slope ``s`` (N/m) with the solid closure on top:
-    ``solid`` (N, :func:`~ltdsim.physics.couplers.solid_closure` at the deflection) and
-    ``solid_stiffness`` (N/m) where the gear is closed solid (``solid > 0``)."""
-    if solid > 0.0:  # closed solid
-        return f + solid, s + solid_stiffness
-    return f, s
-
-
-@njit(cache=True, inline="always")
-def gear_loaded(f1, f_l, s_l, v, k_locked, rate):
-    """Force (N, >= 0) and rate of the internal force (N/s) of a hysteretic gear whose
-    internal force ``f1`` (N) is at or above its loading curve ``f_l`` (N, solid closure
-    included, slope ``s_l`` N/m): :func:`gear_force` there, which needs nothing of the
-    unloading curve. ``v`` = dx/dt m/s, ``k_locked`` N/m, ``rate`` 1/s."""
-    df1 = (k_locked + s_l) * v + rate * (f_l - f1)
-    return (f_l if f_l > 0.0 else 0.0), df1
-
-
-@njit(cache=True, inline="always")
-def gear_band(f1, f_l, f_u, s_l, s_u, v, k_locked, rate):
-    """Force (N, >= 0) and rate of the internal force (N/s) of a hysteretic gear whose
-    internal force ``f1`` (N) is below its loading curve ``f_l`` (N): :func:`gear_force`
-    there, from both curves (solid closure included; slopes ``s_l``, ``s_u`` N/m). An
-    unloading curve never lies above the loading curve. ``v`` = dx/dt m/s, ``k_locked``
-    N/m, ``rate`` 1/s."""
-    if f_u > f_l:
-        f_u = f_l
-    f, df1 = hysteresis(f1, f_l, f_u, s_l, s_u, v, k_locked, rate)
-    if f < 0.0:
-        f = 0.0
-    return f, df1
-
-
-@njit(cache=True, inline="always")
 def gear_force(f1, f_l, f_u, s_l, s_u, v, x, travel, solid_stiffness, k_locked, rate):
     """Force of a hysteretic gear from its curves, and the rate of its internal force.
 
@@ -280,16 +210,20 @@ def gear_force(f1, f_l, f_u, s_l, s_u, v, x, travel, solid_stiffness, k_locked, 
     unloading curve never lies above the loading curve; the force is the internal force
     ``f1`` (N) clipped to the band (:func:`hysteresis`, ``v`` = dx/dt m/s, ``k_locked``
     N/m, ``rate`` 1/s) and never negative (a gear only pushes back). Returns
-    ``(F N, dF1/dt N/s)``. The kernel takes the same steps (:func:`solid_curve`, then
-    :func:`gear_loaded` or :func:`gear_band`) but computes the unloading curve only when
-    ``f1`` lies below the loading curve.
+    ``(F N, dF1/dt N/s)``.
     """
     solid = solid_closure(x, travel, solid_stiffness)
-    f_l, s_l = solid_curve(f_l, s_l, solid, solid_stiffness)
-    if f1 >= f_l:  # on the loading curve (also where the curves meet)
-        return gear_loaded(f1, f_l, s_l, v, k_locked, rate)
-    f_u, s_u = solid_curve(f_u, s_u, solid, solid_stiffness)
-    return gear_band(f1, f_l, f_u, s_l, s_u, v, k_locked, rate)
+    if solid > 0.0:  # closed solid
+        f_l += solid
+        f_u += solid
+        s_l += solid_stiffness
+        s_u += solid_stiffness
+    if f_u > f_l:
+        f_u = f_l
+    f, df1 = hysteresis(f1, f_l, f_u, s_l, s_u, v, k_locked, rate)
+    if f < 0.0:
+        f = 0.0
+    return f, df1
 
 
 #: contact tolerance between follower, spring seat and plates, m. The plate state tracks
@@ -426,7 +360,6 @@ def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor,
 
 __all__ = [
     "friction_coefficient", "wedge_geometry", "spring_forces", "wedge_curves",
-    "wedge_loading", "wedge_unloading", "gear_force", "gear_loaded", "gear_band",
-    "solid_curve", "hysteresis", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
+    "hysteresis", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
     "wedge_gear_quasistatic",
 ]

@@ -114,31 +114,10 @@ def polymer_curves(x, v, preload, initial_stiffness, force_at_travel, travel, ex
     (m/s). Without the
     solid closure (the kernel adds it to every gear).
     """
-    f_l, s_l, fs, ss = polymer_loading(x, v, preload, initial_stiffness, force_at_travel,
-                                       travel, exponent, gain_loading, rate_speed)
-    f_u, s_u = polymer_unloading(v, fs, ss, return_ratio, gain_unloading, rate_speed)
-    return f_l, f_u, s_l, s_u
-
-
-@njit(cache=True, inline="always")
-def polymer_loading(x, v, preload, initial_stiffness, force_at_travel, travel, exponent,
-                    gain_loading, rate_speed):
-    """The loading half of :func:`polymer_curves` (same arguments and units):
-    ``(f_l N, df_l/dx N/m, f_s N, df_s/dx N/m)``, the static curve's force and slope
-    for :func:`polymer_unloading`."""
     fs, ss = polymer_static(x, preload, initial_stiffness, force_at_travel, travel, exponent)
     rl = rate_factor(v, gain_loading, rate_speed)
-    return rl * fs, rl * ss, fs, ss
-
-
-@njit(cache=True, inline="always")
-def polymer_unloading(v, fs, ss, return_ratio, gain_unloading, rate_speed):
-    """The unloading half of :func:`polymer_curves`: ``(f_u N, df_u/dx N/m)`` from the
-    static curve's force ``fs`` (N) and slope ``ss`` (N/m) at the deflection (from
-    :func:`polymer_loading`), the closing speed ``v`` (m/s), ``return_ratio`` and
-    ``gain_unloading`` (-) and ``rate_speed`` (m/s)."""
     ru = return_ratio * rate_factor(v, gain_unloading, rate_speed)
-    return ru * fs, ru * ss
+    return rl * fs, ru * fs, rl * ss, ru * ss
 
 
 @njit(cache=True)
@@ -161,5 +140,4 @@ def polymer_gear(f1, x, v, preload, initial_stiffness, force_at_travel, travel, 
     return gear_force(f1, f_l, f_u, s_l, s_u, v, x, travel, solid_stiffness, k_locked, rate)
 
 
-__all__ = ["polymer_curves", "polymer_gear", "polymer_loading", "polymer_static",
-           "polymer_unloading", "rate_factor"]
+__all__ = ["polymer_curves", "polymer_gear", "polymer_static", "rate_factor"]
