@@ -307,3 +307,43 @@ def test_the_library_curves_are_equation_1_over_its_geometry_and_friction(
                                  c.k_m, c.x_m0, c.k_r, c.x_r0, c.plate_gap, c.plate_backlash,
                                  plates)
     assert_allclose(lib, by_hand(x, c, bool(plates), bool(loading)), rtol=1e-9)
+
+
+@settings(max_examples=300, deadline=None)
+@given(preset=st.sampled_from(["friction-wedge-low", "friction-wedge-high"]),
+       x=st.floats(1e-4, 0.1), v=st.one_of(st.floats(-0.05, 0.05), st.floats(-3.0, 3.0)),
+       share=st.floats(-0.5, 1.5), p=st.floats(0.0, 0.03), draft=st.booleans())
+def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
+        preset, x, v, share, p, draft):
+    """The kernel's force of a wedge gear in contact is Eq. 7: ``F1`` clipped between
+    both curves of :func:`wedge_curves` (solid closure on both, the unloading curve
+    never above the loading curve, never negative), for internal forces below, inside
+    and above the band, in draft and buff, with the plates anywhere (the plates on the
+    unloading curve only while the spring seat carries them)."""
+    from ltdsim.coupler_models import (
+        P_KSOLID, P_TRAVEL, W_BACK, W_C1, W_C2, W_C3, W_G, W_GAP, W_H1, W_H2, W_H3, W_KM,
+        W_KR, W_S, W_TA, W_TB, W_TG, W_XM0, W_XR0, coupler_force, lower_coupler,
+    )
+    from ltdsim.physics.couplers import solid_closure
+    from ltdsim.physics.draftgear import plates_carried, plates_out, wedge_curves
+
+    c = CouplerParams(preset=preset, slack=0.0)
+    tables = []
+    low = lower_coupler(c, tables)
+    r = low.row
+    delta = r[W_BACK]
+    engaged = plates_out(p, max(delta, 1e-3))
+    carried = engaged if plates_carried(x - r[W_GAP], p, delta) else 0.0
+    f_l, f_u, _, _ = wedge_curves(x, v, r[W_TA], r[W_TB], r[W_TG], r[W_G], r[W_C1],
+                                  r[W_C2], r[W_C3], r[W_H1], r[W_H2], r[W_H3], r[W_S],
+                                  r[W_KM], r[W_XM0], r[W_KR], r[W_XR0], engaged, carried)
+    solid = solid_closure(x, r[P_TRAVEL], r[P_KSOLID])
+    f_l += solid
+    f_u = min(f_u + solid, f_l)
+    f1 = f_u + share * (f_l - f_u)
+    y = np.array([f1, p])
+    dy = np.zeros(2)
+    sgn = 1.0 if draft else -1.0
+    force = coupler_force(0, low.code, sgn * x, sgn * v, y, 0, dy, 0, r[None, :],
+                          np.asarray(tables + [0.0]))
+    assert_allclose(sgn * force, max(min(max(f1, f_u), f_l), 0.0), rtol=1e-13, atol=1e-9)
