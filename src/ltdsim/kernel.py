@@ -407,6 +407,9 @@ class Work(NamedTuple):
     fcons: np.ndarray  # (consists,) force of each locomotive consist, N
     sig: np.ndarray  # one SIGNALS record
     hints: np.ndarray  # int64 search cursors: [0, n) track, n driver, n + 1 speed profile
+    tkey: np.ndarray  # (n,) int64 the track segment of each vehicle's tres row (-1: none)
+    tres: np.ndarray  # (n, 2) on that segment its grade force and the magnitude of its
+    #                   curve resistance, N (_resistance)
     inflow: np.ndarray  # (pipe cells,) fluid brake: mass flow into each pipe cell, kg/s
     air: np.ndarray  # (N_AIR_ROWS, ny) or (N_AIR_ROWS, 0): the fluid brake's own steps in
     #                  run_adaptive (AIR_* rows; the pneumatic states at their places in y)
@@ -498,7 +501,9 @@ def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
     return Work(K=np.zeros(stages * ny), ytmp=np.zeros(ny), ynew=np.zeros(ny),
                 force=np.zeros(nc), defl=np.zeros(nc), res=np.zeros(n), bforce=np.zeros(n),
                 fcons=np.zeros(n_consists), sig=np.zeros(1, dtype=SIGNALS),
-                hints=np.zeros(n + 2 + n_consists, dtype=np.int64), inflow=np.zeros(cells),
+                hints=np.zeros(n + 2 + n_consists, dtype=np.int64),
+                tkey=np.full(n, -1, dtype=np.int64), tres=np.zeros((n, 2)),
+                inflow=np.zeros(cells),
                 air=np.zeros((N_AIR_ROWS, ny if air_steps else 0)), air_step=air_step,
                 ddem=np.zeros(drives), dsig=np.zeros((drives, N_DRIVE_SIGNALS)),
                 dout=np.zeros((drives, N_OUT)))
@@ -510,7 +515,7 @@ def work_size(n: int, ny: int, stages: int, n_consists: int = 1, cells: int = 0,
     same arguments, counted without allocating it (the memory check before a run)."""
     nc = max(n - 1, 1)
     return (stages * ny + 2 * ny + 2 * nc + 2 * n + n_consists + len(SIGNALS.names)
-            + n + 2 + n_consists + cells + (N_AIR_ROWS * ny if air_steps else 0)
+            + n + 2 + n_consists + 3 * n + cells + (N_AIR_ROWS * ny if air_steps else 0)
             + len(AIR_STEPPER.names) + drives * (1 + N_DRIVE_SIGNALS + N_OUT))
 
 @njit(cache=True, inline="always")
@@ -603,9 +608,15 @@ def brake_target(t, delay, events, n_events):
 def _resistance(y, tr, w):
     """Running resistance of every vehicle (N, + opposing forward motion) at state ``y``:
     Davis terms at its speed, grade and curve resistance of the track segment under it.
-    Writes ``w.res`` and the total to ``w.sig["resistance"]``; returns the total, N."""
+    Writes ``w.res`` and the total to ``w.sig["resistance"]``; returns the total, N.
+
+    A vehicle's grade force and curve resistance depend on its segment only (and on the
+    sign of its speed): they are worked out when it enters a segment and kept in
+    ``w.tres`` (the same numbers, computed once instead of at every evaluation)."""
     veh = tr.veh
     hints = w.hints
+    tkey = w.tkey
+    tres = w.tres
     res = w.res
     n = veh.shape[0]
     g = tr.trac[T_G]
@@ -613,12 +624,17 @@ def _resistance(y, tr, w):
     for i in range(n):
         v = y[n + i]
         p = veh[i, V_P0] + y[i]
-        wm = veh[i, V_WMASS]
         r = davis_force(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DIV0])
         kt = _segment(tr.track_pos, p, hints[i])
         hints[i] = kt
-        r += grade_force(wm, tr.track_grade[kt], g)
-        r += curve_force(v, wm, tr.track_curv[kt], tr.curve_h, g)
+        if kt != tkey[i]:
+            wm = veh[i, V_WMASS]
+            tkey[i] = kt
+            tres[i, 0] = grade_force(wm, tr.track_grade[kt], g)
+            tres[i, 1] = curve_force(1.0, wm, tr.track_curv[kt], tr.curve_h, g)  # (> 0)
+        r += tres[i, 0]
+        c = tres[i, 1]
+        r += c if v > 0.0 else (-c if v < 0.0 else 0.0)  # curve_force's sign rule
         rtot += r
         res[i] = r
     w.sig[0]["resistance"] = rtot
