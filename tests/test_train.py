@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
@@ -9,7 +11,7 @@ from scipy.optimize import brentq
 import ltdsim
 from ltdsim.reference import make_rhs
 
-from conftest import build, smooth_chain, train_dict
+from conftest import ROOT, build, smooth_chain, train_dict
 
 MASSES = [80000.0, 60000.0, 90000.0, 45000.0, 70000.0]
 
@@ -139,3 +141,35 @@ def test_tracked_peaks_are_the_peaks_of_every_step():
     assert_allclose(coarse.max_coupler_force.values, fine.max_coupler_force.values, rtol=1e-12)
     assert np.all(coarse.max_coupler_force.values >= coarse.coupler_force.values.max(axis=0))
     assert np.any(coarse.max_coupler_force.values > coarse.coupler_force.values.max(axis=0))
+
+
+@settings(max_examples=10, deadline=None)
+@given(v0=st.floats(0.5, 1.5), grade=st.floats(0.015, 0.03), radius=st.floats(200.0, 2000.0))
+def test_train_rolling_back_over_graded_curved_track_obeys_newton_as_a_whole(v0, grade,
+                                                                            radius):
+    """A train set rolling up a grade with curves stops and rolls back over the track
+    pieces it passed (its resistances change sign with its speed): the sum of m a is at
+    every record minus the resistances that the laws give on each vehicle's piece of
+    track (the couplers' forces cancel; no traction, no brakes)."""
+    from ltdsim.lowering import merge_track
+    from ltdsim.physics import curve_resistance, davis_resistance, grade_resistance
+
+    sc = ltdsim.load_scenario(ROOT / "scenarios" / "two-wagons-linear.toml").with_overrides({
+        "initial.velocities": [v0] * 3, "driver.force_profile": [[0.0, 0.0]],
+        "track.gradient": [[0.0, grade], [0.1, 1.3 * grade], [0.25, 0.8 * grade],
+                           [0.4, grade]],
+        "track.curve": [[0.0, 0.0], [0.05, radius], [0.2, 0.0], [0.35, 0.5 * radius]],
+        "solver.t_end": 15.0, "solver.output_interval": 0.01})
+    ds = ltdsim.simulate(sc)
+    v = ds.velocity.values
+    assert v[0, 0] > 0.4 and v[-1, 0] < -0.1  # it went up and came back down
+    m = np.array([u.mass for u in sc.vehicles])
+    wm = np.array([u.weight_mass for u in sc.vehicles])
+    dav = np.array([[u.davis.a, u.davis.b, u.davis.c, u.davis.v0] for u in sc.vehicles])
+    pos, grades, curv = merge_track(sc.track.gradient, sc.track.curve)
+    k = np.clip(np.searchsorted(pos, ds.position.values, side="right") - 1, 0, None)
+    assert len(np.unique(k[:, 0])) >= 4  # the lead crossed several pieces each way
+    res = (davis_resistance(v, *dav.T) + grade_resistance(wm, grades[k], 9.81)
+           + curve_resistance(v, wm, curv[k], sc.track.curve_h, 9.81))
+    ma = (ds.acceleration.values * m).sum(axis=1)
+    assert_allclose(ma, -res.sum(axis=1), rtol=1e-9, atol=1e-6 * np.abs(res).sum(axis=1).max())
