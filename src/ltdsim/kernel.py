@@ -54,6 +54,13 @@ kept because it cut the instructions per step of the force-mode base train
 benchmarks/_reference_kernel.py) with every result bit unchanged; a branch-free or
 pre-checked peak tracking and a force balance in separate vectorisable passes measured
 worse and were left out.
+A vehicle's grade force and curve resistance are worked out when it enters a piece of
+track and kept in the :class:`Work` (``tkey``, ``tres``), not at every evaluation. In
+:func:`run_adaptive` the step's finite check is a flag and the error ratios are formed
+in a pass of their own before their maximum (so that both loops vectorise), and the
+gears that spend a step in their slack share one exponential per relaxation rate. These
+three cut the instructions per step of the heavy-haul train (callgrind, 2026-12-01)
+with every result bit unchanged (benchmarks/check_bit_identical.py).
 
 Compiling. The small helpers are inlined by numba into their callers
 (``inline="always"``). The large ones (:func:`rhs` and its subsystems,
