@@ -3,7 +3,11 @@
 numba checks only the timestamp of the file that defines a cached function, not of the
 functions it calls, so editing a force law would otherwise leave a stale compiled
 kernel in use. Keying the folder on the sources of every compiled module makes any
-change start a fresh cache. A ``NUMBA_CACHE_DIR`` set by the user is respected.
+change start a fresh cache. A ``NUMBA_CACHE_DIR`` set by the user is respected: the
+keyed folder goes inside it (``$NUMBA_CACHE_DIR/ltdsim-<hash>``), so that a cache
+shared between versions of ltdsim, or between edits of its force laws, never hands one
+version's kernels to another (numba would load a kernel whose inlined callees have
+changed in another file, and run it without a word).
 """
 
 from __future__ import annotations
@@ -37,11 +41,19 @@ def source_hash() -> str:
     return h.hexdigest()[:12]
 
 
-def configure() -> None:
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return
+def cache_dir() -> Path:
+    """The folder numba's on-disk cache uses in this process: ``$NUMBA_CACHE_DIR/ltdsim-<hash>``
+    when that variable is set, else ``$XDG_CACHE_HOME/ltdsim/numba-<hash>`` (by default
+    under ``~/.cache``), ``<hash>`` the :func:`source_hash`."""
+    user = os.environ.get("NUMBA_CACHE_DIR")
+    if user:
+        return Path(user) / f"ltdsim-{source_hash()}"
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    numba.config.CACHE_DIR = str(base / "ltdsim" / f"numba-{source_hash()}")
+    return base / "ltdsim" / f"numba-{source_hash()}"
+
+
+def configure() -> None:
+    numba.config.CACHE_DIR = str(cache_dir())
 
 
 configure()
