@@ -5,15 +5,19 @@ consists) end to end with the adaptive bs23 integrator and times it; measures th
 fixed-step ode3 kernel (dt = 1e-4 s) on windows of the same trip in the same process
 (vehicle-steps per second, median of several runs) and reports what the whole trip
 would cost at that rate. With the couplers' peak forces of the whole trip under
-fixed-step ode3 at 1e-4 s (``--fixed``, a file ``--make-fixed`` writes: over half an
-hour of CPU) it also checks the trip's accuracy as issue 18 asks: the peak tensions and
-compressions averaged over the train within 2 %, the train's largest within 2 % (the
-spread that halving the fixed step produces is not measured for the whole trip: 0).
-Prints a table and writes it to benchmarks/results/bench_heavy_haul.md and .json, and
-the trip's overview figure to benchmarks/results/heavy_haul_trip.png.
+fixed-step ode3 at 1e-4 s (``--fixed``; ``--make-fixed`` writes it: half an hour to an
+hour of CPU) it also checks the trip's accuracy as issue 18 asks, by the standard of
+tests/test_heavy_haul.py: the peak tensions and compressions averaged over the train
+within 2 %, the train's largest within 2 % plus what halving the fixed step moves them
+(from the same trip at 5e-5 s, ``--fixed-half``; ``--make-fixed 5e-5`` writes it, twice
+as long; without it the allowance is 2 %). ``--make-fixed`` runs that one trip, writes
+its file and stops, so that both can run side by side on two cores. Prints a table and
+writes it to benchmarks/results/bench_heavy_haul.md and .json, and the trip's overview
+figure to benchmarks/results/heavy_haul_trip.png.
 
 Usage: python benchmarks/bench_heavy_haul.py [--window 10] [--repeats 3] [--t-end 10800]
-                                             [--fixed F.npz] [--make-fixed]
+                                             [--fixed F.npz] [--fixed-half H.npz]
+       python benchmarks/bench_heavy_haul.py --make-fixed [1e-4 | 5e-5]
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ HERE = Path(__file__).resolve().parent
 HEAVY = HERE.parent / "scenarios" / "heavy-haul.toml"
 TARGET_S = 60.0  # issue 18: the 3-hour trip in at most a minute (before: 10 minutes)
 FIXED = Path("/tmp/ltdsim_heavy_trip_fixed_ode3_1e-4.npz")
+FIXED_HALF = Path("/tmp/ltdsim_heavy_trip_fixed_ode3_5e-5.npz")
 COSIM_HOURS = 29.0  # a published 3-D co-simulation of this train: ~29 h on 216 cores
 
 
@@ -45,13 +50,20 @@ def main(argv=None) -> dict:
     ap.add_argument("--out", type=Path, default=HERE / "results")
     ap.add_argument("--fixed", type=Path, default=FIXED,
                     help="peak coupler forces of the trip under ode3 at 1e-4 s (.npz)")
-    ap.add_argument("--make-fixed", action="store_true",
-                    help="run the trip with ode3 at 1e-4 s first and write --fixed")
+    ap.add_argument("--fixed-half", type=Path, default=FIXED_HALF,
+                    help="the same under ode3 at 5e-5 s (.npz)")
+    ap.add_argument("--make-fixed", nargs="?", type=float, const=1e-4, default=None,
+                    choices=(1e-4, 5e-5), metavar="DT",
+                    help="run the trip with ode3 at DT s (1e-4, the default, or 5e-5), "
+                         "write --fixed or --fixed-half and stop")
     args = ap.parse_args(argv)
 
     sc = ltdsim.load_scenario(HEAVY)
     if args.t_end:
         sc = sc.with_overrides({"solver.t_end": args.t_end})
+    if args.make_fixed is not None:
+        return make_fixed(sc, args.make_fixed,
+                          args.fixed if args.make_fixed == 1e-4 else args.fixed_half)
     n = sc.n_vehicles
     t_trip = sc.solver.n_steps * sc.solver.dt
 
@@ -67,11 +79,6 @@ def main(argv=None) -> dict:
         rates[label] = n * s.solver.n_steps / statistics.median(walls)
     rate = statistics.median(rates.values())
     fixed_trip = n * round(t_trip / 1e-4) / rate
-
-    if args.make_fixed:
-        print(f"the trip with fixed-step ode3 at 1e-4 s (to {args.fixed}) ...", flush=True)
-        ref = ltdsim.simulate(sc.with_overrides({"solver.method": "ode3", "solver.dt": 1e-4}))
-        np.savez(args.fixed, mx=ref.max_coupler_force.values, mn=ref.min_coupler_force.values)
 
     ltdsim.simulate(sc.with_overrides({"solver.t_end": 1.0}))  # compile or load bs23
     with Progress(TextColumn("heavy-haul trip (bs23)"), BarColumn(),
@@ -114,19 +121,41 @@ def main(argv=None) -> dict:
                     "mean_compression": mn.mean() / z["mn"].mean() - 1.0,
                     "top_tension": mx.max() / z["mx"].max() - 1.0,
                     "top_compression": mn.min() / z["mn"].min() - 1.0}
-        ok = all(abs(x) <= 0.02 for x in accuracy.values())
+        # what halving the fixed step moves the train's largest forces (0 unmeasured)
+        spread = {"top_tension": 0.0, "top_compression": 0.0}
+        if args.fixed_half.is_file():
+            h = np.load(args.fixed_half)
+            spread = {"top_tension": abs(h["mx"].max() / z["mx"].max() - 1.0),
+                      "top_compression": abs(h["mn"].min() / z["mn"].min() - 1.0),
+                      "mean_tension": h["mx"].mean() / z["mx"].mean() - 1.0,
+                      "mean_compression": h["mn"].mean() / z["mn"].mean() - 1.0}
+        allowed = {k: 0.02 + spread.get(k, 0.0) for k in accuracy}
+        ok = all(abs(accuracy[k]) <= allowed[k] for k in accuracy)
         rows += [
             ("fixed-step ode3, dt 1e-4, whole trip: largest tension / compression",
              f"{z['mx'].max() / 1e3:.0f} kN / {z['mn'].min() / 1e3:.0f} kN"),
-            ("bs23 against it: peak tension / compression averaged over the train",
-             f"{accuracy['mean_tension'] * 100:+.2f} % / "
-             f"{accuracy['mean_compression'] * 100:+.2f} % (within 2 % asked)"),
-            ("bs23 against it: the train's largest tension / compression",
+        ]
+        if args.fixed_half.is_file():
+            rows += [
+                ("fixed-step ode3, dt 5e-5, whole trip: largest tension / compression",
+                 f"{h['mx'].max() / 1e3:.0f} kN / {h['mn'].min() / 1e3:.0f} kN"),
+                ("halving the fixed step moves the averaged peaks (tension / compression)",
+                 f"{spread['mean_tension'] * 100:+.2f} % / "
+                 f"{spread['mean_compression'] * 100:+.2f} %"),
+            ]
+        rows += [
+            ("bs23 against ode3 at 1e-4 s: peak tension / compression averaged over the "
+             "train", f"{accuracy['mean_tension'] * 100:+.2f} % / "
+                      f"{accuracy['mean_compression'] * 100:+.2f} % (within 2 % asked)"),
+            ("bs23 against ode3 at 1e-4 s: the train's largest tension / compression",
              f"{accuracy['top_tension'] * 100:+.2f} % / "
-             f"{accuracy['top_compression'] * 100:+.2f} % (within 2 % asked)"),
+             f"{accuracy['top_compression'] * 100:+.2f} % (within "
+             f"{allowed['top_tension'] * 100:.2f} % / {allowed['top_compression'] * 100:.2f} "
+             "% asked: 2 % plus the halving spread"
+             + ("" if args.fixed_half.is_file() else ", not measured") + ")"),
             ("accuracy checks hold", "yes" if ok else "NO"),
         ]
-        accuracy["ok"] = ok
+        accuracy.update(ok=ok, halving_spread=spread, allowed=allowed)
     from ltdsim.plotting import save_overview
 
     save_overview(ds, args.out / "heavy_haul_trip.png")  # the trip at a glance
@@ -141,6 +170,26 @@ def main(argv=None) -> dict:
             f"Heavy-haul benchmark, {{stamp}}; fixed-step rates are medians of "
             f"{args.repeats} runs of {args.window:g} s", rows, result=result)
     return result
+
+
+def make_fixed(sc, dt: float, path: Path) -> dict:
+    """Run scenario ``sc`` with fixed-step ode3 at ``dt`` (s) and write the couplers'
+    peak tensions ``mx`` and compressions ``mn`` (N) to ``path`` (.npz)."""
+    print(f"the trip with fixed-step ode3 at {dt:g} s (to {path}) ...", flush=True)
+    fixed = sc.with_overrides({"solver.method": "ode3", "solver.dt": dt})
+    t_trip = fixed.solver.n_steps * fixed.solver.dt
+    with Progress(TextColumn(f"heavy-haul trip (ode3, {dt:g} s)"), BarColumn(),
+                  TextColumn("{task.completed:.0f}/{task.total:.0f} s simulated"),
+                  TimeElapsedColumn()) as bar:
+        task = bar.add_task("trip", total=t_trip)
+        c0 = time.process_time()
+        ref = ltdsim.simulate(fixed, progress=lambda t, _: bar.update(task, completed=t))
+        cpu = time.process_time() - c0
+    np.savez(path, mx=ref.max_coupler_force.values, mn=ref.min_coupler_force.values)
+    print(f"written: {path}, {cpu:.0f} s of CPU; largest tension "
+          f"{ref.max_coupler_force.values.max() / 1e3:.1f} kN, compression "
+          f"{ref.min_coupler_force.values.min() / 1e3:.1f} kN", flush=True)
+    return {"dt": dt, "cpu_s": cpu, "path": str(path)}
 
 
 if __name__ == "__main__":
