@@ -29,9 +29,10 @@ from pathlib import Path
 
 import numpy as np
 from _results import publish
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.console import Console
 
 import ltdsim
+from ltdsim.progress import Display
 
 HERE = Path(__file__).resolve().parent
 HEAVY = HERE.parent / "scenarios" / "heavy-haul.toml"
@@ -81,12 +82,10 @@ def main(argv=None) -> dict:
     fixed_trip = n * round(t_trip / 1e-4) / rate
 
     ltdsim.simulate(sc.with_overrides({"solver.t_end": 1.0}))  # compile or load bs23
-    with Progress(TextColumn("heavy-haul trip (bs23)"), BarColumn(),
-                  TextColumn("{task.completed:.0f}/{task.total:.0f} s simulated"),
-                  TimeElapsedColumn()) as bar:
-        task = bar.add_task("trip", total=t_trip)
+    with Display(Console(stderr=True), interval=30.0) as shown:
+        update = shown.bar("heavy-haul trip (bs23)", t_trip, "s simulated")
         t0, c0 = time.perf_counter(), time.process_time()
-        ds = ltdsim.simulate(sc, progress=lambda t, _: bar.update(task, completed=t))
+        ds = ltdsim.simulate(sc, progress=lambda t, _: update(t))
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     steps, rejected = ds.attrs["steps"], ds.attrs["rejected_steps"]
     v = ds.velocity.values[:, 0]
@@ -178,12 +177,11 @@ def make_fixed(sc, dt: float, path: Path) -> dict:
     print(f"the trip with fixed-step ode3 at {dt:g} s (to {path}) ...", flush=True)
     fixed = sc.with_overrides({"solver.method": "ode3", "solver.dt": dt})
     t_trip = fixed.solver.n_steps * fixed.solver.dt
-    with Progress(TextColumn(f"heavy-haul trip (ode3, {dt:g} s)"), BarColumn(),
-                  TextColumn("{task.completed:.0f}/{task.total:.0f} s simulated"),
-                  TimeElapsedColumn()) as bar:
-        task = bar.add_task("trip", total=t_trip)
+    # (a live bar on a terminal, a line a minute in a log: these runs take an hour)
+    with Display(Console(stderr=True), interval=60.0) as shown:
+        update = shown.bar(f"heavy-haul trip (ode3, {dt:g} s)", t_trip, "s simulated")
         c0 = time.process_time()
-        ref = ltdsim.simulate(fixed, progress=lambda t, _: bar.update(task, completed=t))
+        ref = ltdsim.simulate(fixed, progress=lambda t, _: update(t))
         cpu = time.process_time() - c0
     np.savez(path, mx=ref.max_coupler_force.values, mn=ref.min_coupler_force.values)
     print(f"written: {path}, {cpu:.0f} s of CPU; largest tension "
