@@ -169,7 +169,8 @@ def test_train_rolling_back_over_graded_curved_track_obeys_newton_as_a_whole(v0,
     pos, grades, curv = merge_track(sc.track.gradient, sc.track.curve)
     k = np.clip(np.searchsorted(pos, ds.position.values, side="right") - 1, 0, None)
     assert len(np.unique(k[:, 0])) >= 4  # the lead crossed several pieces each way
-    res = (davis_resistance(v, *dav.T) + grade_resistance(wm, grades[k], 9.81)
-           + curve_resistance(v, wm, curv[k], sc.track.curve_h, 9.81))
+    g = sc.track.gravity
+    res = (davis_resistance(v, *dav.T) + grade_resistance(wm, grades[k], g)
+           + curve_resistance(v, wm, curv[k], sc.track.curve_h, g))
     ma = (ds.acceleration.values * m).sum(axis=1)
     assert_allclose(ma, -res.sum(axis=1), rtol=1e-9, atol=1e-6 * np.abs(res).sum(axis=1).max())
