@@ -62,8 +62,8 @@ their slack share one exponential per relaxation rate. Together they cut the
 instructions per attempted step of the heavy-haul train in cruise by 10 % (callgrind,
 2026-12-01) with every result bit unchanged (benchmarks/check_bit_identical.py); error
 ratios formed in a pass of their own before their maximum measured 1 % worse (the
-division does not vectorise there: numba's default error model tests it for zero) and
-were left out.
+division does not vectorise there, likely because numba's default error model tests it
+for zero) and were left out.
 
 Compiling. The small helpers are inlined by numba into their callers
 (``inline="always"``). The large ones (:func:`rhs` and its subsystems,
