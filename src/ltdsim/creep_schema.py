@@ -33,7 +33,8 @@ def _preset(name: str) -> dict:
 
 class RailCondition(_Strict):
     """Polach's creep-force parameters of one rail condition: a shipped preset (``dry``,
-    ``wet``, ``low-adhesion``) with any key given here replacing the preset's."""
+    ``wet``, ``low-adhesion``, ``eurosprinter``) with any key given here replacing the
+    preset's."""
 
     preset: str | None = Field(None, description="name of a shipped rail condition "
                                                  "(data/creep/*.toml); none: give all keys")
