@@ -94,6 +94,7 @@ def inputs(sc) -> dict:
         damping=np.array([c.damping for c in cpl]), k1=np.array([c.k1 for c in cpl]),
         k2=np.array([c.k2 for c in cpl]), k3=np.array([c.k3 for c in cpl]),
         inv_vc=np.array([1.0 / c.v_c for c in cpl]),
+        by_rate=np.array([c.fade == "rate" for c in cpl]),
         travel=np.array([np.inf if c.travel is None else c.travel for c in cpl]),
         solid_stiffness=np.array([c.solid_stiffness for c in cpl]),
         prof_t=prof[:, 0].copy(), prof_f=prof[:, 1].copy(), loco=int(loco),
@@ -126,7 +127,7 @@ def _lookup(xs, x, k):
 @njit(cache=True)
 def run(y, dt, n_steps, record_every, inv_m, weight_mass, davis_a, davis_b, davis_c,
         davis_inv_v0, p0, grade_x, grade, curve_x, curvature, curve_h, g, slack, preload,
-        damping, k1, k2, k3, inv_vc, travel, solid_stiffness, prof_t, prof_f, loco,
+        damping, k1, k2, k3, inv_vc, by_rate, travel, solid_stiffness, prof_t, prof_f, loco,
         max_force, max_power, adhesion_mass, fade, out_force):
     """Step ``y = [x (n) m, v (n) m/s]`` (updated in place) ``n_steps`` steps of ``dt``
     (s) with ode3 and write the coupler forces (N, + tension) at every
@@ -174,7 +175,8 @@ def run(y, dt, n_steps, record_every, inv_m, weight_mass, davis_a, davis_b, davi
             for j in range(n - 1):
                 force[j] = simplified_force(ys[j] - ys[j + 1], ys[n + j] - ys[n + j + 1],
                                             slack[j], preload[j], damping[j], k1[j], k2[j],
-                                            k3[j], inv_vc[j], travel[j], solid_stiffness[j])
+                                            k3[j], inv_vc[j], by_rate[j], travel[j],
+                                            solid_stiffness[j])
             # each vehicle: traction, resistance, the couplers on either side
             for i in range(n):
                 v = ys[n + i]

@@ -30,7 +30,7 @@ FULL = {
                "travel": 0.08, "solid_stiffness": 2e9},
     "simplified": {"model": "simplified", "slack": 0.025, "preload": 1e4, "damping": 1e3,
                    "k1": 8e6, "k2": 1.8e6, "k3": 3.4e6, "v_c": 0.6, "travel": 0.09,
-                   "solid_stiffness": 3e9},
+                   "solid_stiffness": 3e9, "fade": "rate", "gears": 2},
     "friction_wedge": {**load_gear_preset("friction-wedge-high"), "tracking_time": 2e-3,
                        "solid_stiffness": 4e9, "plate_backlash": 0.004},
     "table": {**load_gear_preset("mt-2"), "tracking_time": 3e-3, "solid_stiffness": 5e9},
@@ -64,6 +64,10 @@ def expected_places(c, key):
         return None
     if key == "v_c":
         return {"inv_v_c": 1.0 / value}
+    if key == "gears":
+        return {"inv_gears": 1.0 / value}
+    if key == "fade":
+        return {"by_rate": 1.0 if value == "rate" else 0.0}
     if key in ("alpha_deg", "beta_deg", "gamma_deg"):
         return _wedge_geometry(c.alpha_deg, c.beta_deg, c.gamma_deg)
     if key == "tracking_time":

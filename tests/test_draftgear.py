@@ -218,11 +218,14 @@ def test_scalar_s_and_a_constant_s_table_give_the_same_gear():
     assert a == b
 
 
-def test_reduction_recovers_a_simplified_coupler():
+@pytest.mark.parametrize("fade, v_c", [("deflection", 0.05), ("rate", 0.6)])
+def test_reduction_recovers_a_simplified_coupler(fade, v_c):
+    # a fade constant that the chain of sines resolves: 50 mm of deflection (k2 fades by
+    # e^-1 within the rig's travel) or 0.6 m/s of rate
     true = CouplerParams(model="simplified", slack=0.025, damping=2512.0, k1=8.265776e6,
-                         k2=1.856364e6, k3=3.4748e6, v_c=0.6, travel=0.08)
+                         k2=1.856364e6, k3=3.4748e6, v_c=v_c, travel=0.08, fade=fade)
     segments = ((1e6, np.pi / 2, 4.0), (1e6, 2 * np.pi, 1.0), (1e7, 10 * np.pi, 0.2))
-    r = reduce_gear(true, segments=segments, dt=1e-3, popsize=10, maxiter=300)
+    r = reduce_gear(true, segments=segments, dt=1e-3, popsize=10, maxiter=300, fade=fade)
     for k, v in r.parameters.items():
         assert_allclose(v, getattr(true, k), rtol=0.02, err_msg=k)
     assert r.fit_percent > 99.9

@@ -27,7 +27,7 @@ def test_beyond_travel_the_solid_gear_adds_its_stiffness_times_the_excess(over, 
     # or buff: the force is the gear's own law plus ks x excess, in the deflection's sense
     d = sign * (0.5 * s + travel + over)
     for law in (lambda tr, k: coupler_simplified(d, dd, s, 0.0, 999.8706, 8.265776e6,
-                                                 1.856364e6, 3.4748e6, 0.6, tr, k),
+                                                 1.856364e6, 3.4748e6, 0.6, False, tr, k),
                 lambda tr, k: coupler_linear(d, dd, s, 5e6, 2e3, tr, k)):
         free = law(INF, ks)
         solid = law(travel, ks)

@@ -18,15 +18,16 @@ from pathlib import Path
 
 import ltdsim
 
-# a simplified coupler (paper Eq. 9) 10 mm into draft past its slack, at rest: its
-# stiffness fade exp(-|v|/v_c) is 1, so T = P + (k3 + k2) e (N, m, N s/m, N/m, m/s)
+# a simplified coupler (paper Eq. 9, its fade read on the rate) 10 mm into draft past its
+# slack, at rest: its stiffness fade exp(-|v|/v_c) is 1, so T = P + (k3 + k2) e (N, m,
+# N s/m, N/m, m/s)
 SLACK, PRELOAD, DAMP, K1, K2, K3, VC = 0.02, 5e4, 1e3, 8.0e6, 1.9e6, 3.5e6, 0.6
 D = 0.5 * SLACK + 0.01  # m, coupler deflection: 10 mm past the slack's edge
 
 FORCE = (
     "import math, ltdsim.physics.couplers as c; "
     f"print(repr(float(c.coupler_simplified({D}, 0.0, {SLACK}, {PRELOAD}, {DAMP}, {K1}, "
-    f"{K2}, {K3}, {VC}, math.inf, 0.0))))"
+    f"{K2}, {K3}, {VC}, True, math.inf, 0.0))))"
 )
 
 

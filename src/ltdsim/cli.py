@@ -696,8 +696,8 @@ def gear_ratings(
         return
     params = CouplerParams(**{k: v for k, v in gear.items() if k != "exponent"})
     t = np.linspace(0.0, 20.0, 20001)
-    # one slow closing and release of the whole connection
-    d = gear["travel"] * 0.5 * (1 - np.cos(2 * np.pi * t / 20.0))
+    # one slow closing and release of the whole connection (its gears in series)
+    d = series * gear["travel"] * 0.5 * (1 - np.cos(2 * np.pi * t / 20.0))
     ds = drive_deflection(params, t, d, dt=1e-3)
     half = len(t) // 2 + 1
     closing = ds.isel(time=slice(0, half))
@@ -810,6 +810,9 @@ def reduce(
                    ] = "deflection",
     mass: Annotated[float, typer.Option(help="rig mass of the force rig, kg")] = 8.1e5,
     dt: Annotated[float, typer.Option(help="rig step, s")] = 5e-4,
+    fade: Annotated[str, typer.Option(help="what the fitted k2 fades with: deflection (v_c "
+                                           "in m, the default law) or rate (v_c in m/s)")
+                    ] = "deflection",
     workers: Annotated[int, typer.Option(help="parallel processes (-1: all cores)")] = -1,
     maxiter: Annotated[int, typer.Option(help="generations at most")] = 1000,
     seed: Annotated[int, typer.Option(help="random seed")] = 0,
@@ -833,6 +836,9 @@ def reduce(
         target = _gear_params(preset, scenario, coupler)
         if rig not in ("deflection", "force"):
             raise ScenarioError("--rig", [("rig", f"must be deflection or force, got {rig!r}")])
+        if fade not in ("deflection", "rate"):
+            raise ScenarioError("--fade", [("fade", f"must be deflection or rate, got "
+                                                    f"{fade!r}")])
     except ScenarioError as exc:
         _fail(exc)
         return
@@ -841,10 +847,11 @@ def reduce(
                   console=err_console) as prog:
         task = prog.add_task("fit", total=maxiter, cost=float("nan"))
         result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers, maxiter=maxiter,
-                             seed=seed, progress=lambda g, n, c: prog.update(task, completed=g,
-                                                                              cost=c))
+                             seed=seed, fade=fade,
+                             progress=lambda g, n, c: prog.update(task, completed=g, cost=c))
     table = _table(f"Simplified coupler fitted to {preset or scenario}", ("parameter", "value"))
-    units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m", "v_c": "m/s"}
+    units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m",
+             "v_c": "m/s" if fade == "rate" else "m"}
     for k, v in result.parameters.items():
         table.add_row(f"{k} [{units[k]}]", f"{v:.6g}")
     table.add_row("fit [%]", f"{result.fit_percent:.2f}")
@@ -1053,18 +1060,20 @@ def modal(
     file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
     case: CaseOpt = None,
     set_: SetOpt = None,
-    stiffness: Annotated[str, typer.Option(help="low (k1), high (k2 + k3), or N/m")] = "low",
-    series: Annotated[int, typer.Option(help="gears in series per coupling")] = 2,
+    stiffness: Annotated[str, typer.Option(
+        help="the branch every coupling is linearised on: draft (tension; a simplified "
+             "coupler's k2 + k3) or buff (compression; its k1), or a coupling stiffness in "
+             "N/m")] = "draft",
     output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
         "results/modal"),
 ) -> None:
-    """Natural frequencies and mode shapes of the train (study Fig. 8)."""
+    """Natural frequencies and mode shapes of the train (study Fig. 8), linearised as the
+    kernel simulates each coupling (its gears in series included: the key gears)."""
     from ltdsim.modal import save_mode_shapes, train_modes
 
     try:
         _check_folder(output)
-        _check_number("--series", series, 1, 10, whole=True)
-        if stiffness in ("low", "high"):
+        if stiffness in ("draft", "buff"):
             which = stiffness
         else:
             try:
@@ -1072,17 +1081,19 @@ def modal(
             except ValueError:
                 which = float("nan")
             if not 0.0 < which <= 1e12:
-                raise ScenarioError("--stiffness", [("", f"must be low (k1), high (k2 + k3) "
-                                                         "or a stiffness in (0, 1e12] N/m "
+                raise ScenarioError("--stiffness", [("", "must be draft, buff or a coupling "
+                                                         "stiffness in (0, 1e12] N/m "
                                                          f"(got {stiffness})")])
         _, sc = _result_or_scenario(file, case, run=False, overrides=set_)
-        table = train_modes(sc, which, series)
+        table = train_modes(sc, which)
     except (ScenarioError, ValueError) as exc:
         _fail(exc if isinstance(exc, ScenarioError) else
               ScenarioError("--stiffness", [("", str(exc))]))
         return
-    out = _table(f"Modes of {file}" + (f" [{sc.case}]" if sc.case else "")
-                 + f", {stiffness} stiffness, {series} gear(s) per coupling",
+    gears = sorted({sc.coupler(j).gears for j in range(sc.n_couplers)})
+    what = (f"{stiffness} branch" if isinstance(which, str) else f"{which:.4g} N/m")
+    what += ", " + " or ".join(str(g) for g in gears) + " gear(s) per coupling"
+    out = _table(f"Modes of {file}" + (f" [{sc.case}]" if sc.case else "") + f", {what}",
                  ("mode (1 = lowest)", "frequency [Hz]"))
     for i, f in enumerate(table.frequency_hz):
         out.add_row(str(i + 1), f"{f:.3f}")
@@ -1095,8 +1106,7 @@ def modal(
     shapes.index = shapes.index + 1
     shapes.index.name = "mode (1 = lowest)"
     _csv(shapes, output / f"modes_{stiffness}.csv", index=True)
-    save_mode_shapes(table, output / f"mode_shapes_{stiffness}.png",
-                     title=f"{stiffness} stiffness, {series} gear(s) per coupling")
+    save_mode_shapes(table, output / f"mode_shapes_{stiffness}.png", title=what)
     _say(f"table and mode-shape figure written to {output}")
 
 

@@ -51,21 +51,24 @@ from ltdsim.physics.polymer import polymer_curves
 #: x_j - x_(j+1)) m, gear travel beyond the slack to solid closure m (inf: none),
 #: stiffness of the solid gear N/m, offset of the coupler's internal states among the
 #: gear states (-1: none), their relaxation rate 1/s, force of the released gear at
-#: zero deflection N (its internal force's initial value)
+#: zero deflection N (its internal force's initial value), and the inverse of the
+#: number of gears in series in the coupling, - (each gear carries the coupling's force
+#: and sees this share of its deflection and rate; its slack too, so that its dead band
+#: is the coupling's: the model's laws take the gear's view, :func:`coupler_force`)
 COMMON_COLUMNS = ("slack", "d0", "travel", "solid_stiffness", "state_offset", "rate",
-                  "released_force")
-(P_SLACK, P_D0, P_TRAVEL, P_KSOLID, P_ZOFF, P_RATE, P_F0) = layout(*COMMON_COLUMNS)
+                  "released_force", "inv_gears")
+(P_SLACK, P_D0, P_TRAVEL, P_KSOLID, P_ZOFF, P_RATE, P_F0, P_INVG) = layout(*COMMON_COLUMNS)
 N_COMMON = len(COMMON_COLUMNS)
 
 #: linear: stiffness N/m, damping N s/m
 LINEAR_COLUMNS = ("stiffness", "damping")
 (LIN_STIFF, LIN_DAMP) = layout(*LINEAR_COLUMNS, start=N_COMMON)
 
-#: simplified (paper Eq. 9): preload N, damping N s/m, k1 k2 k3 N/m, 1/v_c s/m (the
-#: kernel multiplies)
-SIMPLIFIED_COLUMNS = ("preload", "damping", "k1", "k2", "k3", "inv_v_c")
-(SIM_PRELOAD, SIM_DAMP, SIM_K1, SIM_K2, SIM_K3, SIM_IVC) = layout(*SIMPLIFIED_COLUMNS,
-                                                                   start=N_COMMON)
+#: simplified (paper Eq. 9): preload N, damping N s/m, k1 k2 k3 N/m, 1/v_c 1/m or s/m
+#: (the kernel multiplies), whether k2 fades with the rate (1) or the deflection (0)
+SIMPLIFIED_COLUMNS = ("preload", "damping", "k1", "k2", "k3", "inv_v_c", "by_rate")
+(SIM_PRELOAD, SIM_DAMP, SIM_K1, SIM_K2, SIM_K3, SIM_IVC, SIM_RATE) = layout(
+    *SIMPLIFIED_COLUMNS, start=N_COMMON)
 
 #: columns every hysteretic gear has first among its own: locked stiffness N/m
 HYSTERETIC_COLUMNS = ("k_locked",)
@@ -104,8 +107,10 @@ MODEL_NAMES = ("linear", "simplified", "friction_wedge", "table", "polymer")
 
 # ------------------------------------------------------------------ compiled dispatch
 @njit(cache=True, _nrt=False, forceinline=True)
-def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
-    """Force (N, + tension) of hysteretic gear ``j``; writes its state rates to ``dy``.
+def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
+    """Force (N, + tension) of hysteretic gear ``j`` at its own deflection ``d`` (m),
+    rate ``dd`` (m/s) and share of the slack ``slack`` (m) (:func:`coupler_force`);
+    writes its state rates to ``dy``.
 
     ``zo``/``dzo`` index the gear's states in ``y``/``dy``: internal force F1 (N); for a
     wedge gear also the plate displacement p (m); with an S table also the impact speed
@@ -116,7 +121,7 @@ def _gear(j, model, d, dd, y, zo, dy, dzo, cpl, ctab):
     Compiled once for the train kernels and the gear rig (:mod:`ltdsim.gear`), inlined
     by LLVM (see :mod:`ltdsim.kernel`'s notes on compiling).
     """
-    x, sgn, in_slack = gear_deflection(d, dd, cpl[j, P_SLACK])
+    x, sgn, in_slack = gear_deflection(d, dd, slack)
     rate = cpl[j, P_RATE]
     f1 = y[zo]
     wedge = model == M_WEDGE
@@ -178,17 +183,27 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
     """Force of coupler ``j`` (N, + tension) at deflection ``d`` (m) and rate ``dd``
     (m/s), by its model code ``model``. A gear with internal states reads them at
     ``y[z0 + offset]`` and writes their rates to ``dy[dz0 + offset]`` (``offset`` its
-    ``P_ZOFF`` column). One branch per model of :data:`MODELS`."""
+    ``P_ZOFF`` column). One branch per model of :data:`MODELS`.
+
+    A coupling of ``n`` gears in series (``P_INVG = 1 / n``): every gear carries the
+    coupling's force, and alike gears from alike states share its deflection beyond the
+    slack equally, so the law is evaluated once, at ``d / n`` and ``dd / n`` with the
+    slack ``slack / n`` (the same dead band), and one set of internal states stands for
+    all of them."""
+    s = cpl[j, P_INVG]
+    d = d * s
+    dd = dd * s
+    slack = cpl[j, P_SLACK] * s
     if model == M_SIMPLIFIED:
-        return simplified_force(d, dd, cpl[j, P_SLACK], cpl[j, SIM_PRELOAD],
+        return simplified_force(d, dd, slack, cpl[j, SIM_PRELOAD],
                                 cpl[j, SIM_DAMP], cpl[j, SIM_K1], cpl[j, SIM_K2],
-                                cpl[j, SIM_K3], cpl[j, SIM_IVC], cpl[j, P_TRAVEL],
-                                cpl[j, P_KSOLID])
+                                cpl[j, SIM_K3], cpl[j, SIM_IVC], cpl[j, SIM_RATE] > 0.0,
+                                cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
     if model == M_LINEAR:
-        return linear_force(d, dd, cpl[j, P_SLACK], cpl[j, LIN_STIFF], cpl[j, LIN_DAMP],
-                              cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
+        return linear_force(d, dd, slack, cpl[j, LIN_STIFF], cpl[j, LIN_DAMP],
+                            cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
     zo = int(cpl[j, P_ZOFF])
-    return _gear(j, model, d, dd, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
+    return _gear(j, model, d, dd, slack, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
 
 
 # ------------------------------------------------------------------ registry
@@ -207,10 +222,12 @@ class CouplerModel:
     common columns it sets itself, such as a table gear's travel), appending curves to
     the flat table store ``tables``; ``states(c)`` the kinds of its internal states
     ("force" N, "x" m, "v" m/s: they set the bs23 error weights); ``released(c)`` its
-    initial internal force N; ``stiffness(c, which)`` its linearised stiffness N/m for
-    modal analysis (``which`` "low" or "high"), None when it has none; ``stiffest(c)``
-    its tangent stiffness at its stiffest N/m, solid closure included (the fixed-step
-    stability check, :mod:`ltdsim.stability`).
+    initial internal force N; ``stiffness(c, branch)`` one gear's linearised stiffness N/m
+    in the ``branch`` "draft" (tension) or "buff" (compression), for modal analysis, None
+    when it has none; ``stiffest(c)`` one gear's tangent stiffness at its stiffest N/m,
+    solid closure included (the fixed-step stability check, :mod:`ltdsim.stability`).
+    These describe one gear: :func:`linearised_stiffness` and :func:`stiffest` give the
+    coupling's, with its gears in series.
     """
 
     name: str
@@ -219,7 +236,7 @@ class CouplerModel:
     stiffest: Callable[[object], float]
     states: Callable[[object], tuple[str, ...]] = lambda c: ()
     released: Callable[[object], float] = lambda c: 0.0
-    stiffness: Callable[[object, str], float | None] = lambda c, which: None
+    stiffness: Callable[[object, str], float | None] = lambda c, branch: None
     #: the most internal states any coupler of this model has
     max_states: int = 0
 
@@ -241,7 +258,7 @@ def _lower_linear(c, tables) -> dict:
 
 def _lower_simplified(c, tables) -> dict:
     return {"preload": c.preload, "damping": c.damping, "k1": c.k1, "k2": c.k2, "k3": c.k3,
-            "inv_v_c": 1.0 / c.v_c}
+            "inv_v_c": 1.0 / c.v_c, "by_rate": 1.0 if c.fade == "rate" else 0.0}
 
 
 def _lower_wedge(c, tables) -> dict:
@@ -328,13 +345,11 @@ def _lower_polymer(c, tables) -> dict:
     return {name: float(getattr(c, name)) for name in POLYMER_COLUMNS}
 
 
-def _polymer_stiffness(c, which: str) -> float:
-    """Linearised stiffness of a polymer gear, N/m: the slope of its static loading curve
-    at zero deflection (``initial_stiffness``) for "low", the same times the loading
-    curve's high-speed factor ``1 + gain_loading`` for "high" (the gear near its preload,
-    where a running train keeps most couplings)."""
-    k0 = float(c.initial_stiffness)
-    return k0 if which == "low" else k0 * (1.0 + float(c.gain_loading))
+def _polymer_stiffness(c, branch: str) -> float:
+    """Linearised stiffness of a polymer gear, N/m, in either branch (the gear is the
+    same in draft and buff): the slope of its static loading curve at zero deflection,
+    ``initial_stiffness``."""
+    return float(c.initial_stiffness)
 
 
 def _polymer_stiffest(c) -> float:
@@ -351,10 +366,12 @@ def _polymer_stiffest(c) -> float:
 MODELS: tuple[CouplerModel, ...] = (
     CouplerModel("linear", LINEAR_COLUMNS, _lower_linear,
                  stiffest=lambda c: c.stiffness + _solid(c),
-                 stiffness=lambda c, which: c.stiffness),
+                 stiffness=lambda c, branch: c.stiffness),
+    # simplified: buff k1; draft the tangent at rest and at zero deflection, k2 + k3 (either
+    # fade: exp(-e/v_c) and exp(-|de/dt|/v_c) are both 1 there), the study's "high" (§5.2)
     CouplerModel("simplified", SIMPLIFIED_COLUMNS, _lower_simplified,
                  stiffest=lambda c: max(c.k1, c.k2 + c.k3) + _solid(c),
-                 stiffness=lambda c, which: c.k1 if which == "low" else c.k2 + c.k3),
+                 stiffness=lambda c, branch: c.k1 if branch == "buff" else c.k2 + c.k3),
     CouplerModel("friction_wedge", WEDGE_COLUMNS, _lower_wedge, _wedge_stiffest,
                  states=_wedge_states, released=_wedge_released, max_states=3),
     # (a table gear closes solid at its last point when it states no travel)
@@ -404,6 +421,7 @@ def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
     # one never closes solid
     row[P_TRAVEL] = np.inf if c.travel is None else c.travel
     row[P_KSOLID] = c.solid_stiffness
+    row[P_INVG] = 1.0 / c.gears
     states = entry.states(c)
     y0: tuple[float, ...] = ()
     if states:
@@ -423,11 +441,64 @@ def released_force(c) -> float:
     return REGISTRY[c.model].released(c)
 
 
-def linearised_stiffness(c, which: str = "low") -> float | None:
-    """Linearised stiffness of coupler ``c`` for modal analysis, N/m: "low" (a simplified
-    coupler's recoil k1) or "high" (k2 + k3); a linear coupler's stiffness either way;
-    None for a model without one (give a number instead)."""
-    return REGISTRY[c.model].stiffness(c, which)
+#: the branches a coupling can be linearised on: in tension or in compression
+BRANCHES = ("draft", "buff")
+
+
+def linearised_stiffness(c, branch: str = "draft") -> float | None:
+    """Linearised stiffness of coupling ``c`` for modal analysis, N/m, on the ``branch``
+    "draft" (tension; a simplified coupler's k2 + k3) or "buff" (compression; its recoil
+    stiffness k1); a linear coupler's stiffness either way; None for a model without one
+    (give a number instead). Its ``gears`` in series divide one gear's stiffness: the
+    same coupling the kernel simulates (:func:`coupler_force`)."""
+    if branch not in BRANCHES:
+        raise ValueError(f"branch must be one of {', '.join(BRANCHES)}, got {branch!r}")
+    k = REGISTRY[c.model].stiffness(c, branch)
+    return None if k is None else k / c.gears
+
+
+def _simplified_tangent(c, e: float) -> float:
+    """Tangent of a simplified gear at rest at gear deflection ``e`` (m, + draft, beyond
+    the slack), N/m: buff k1; draft ``k3 + k2 exp(-e/v_c) (1 - e/v_c)`` when k2 fades with
+    the deflection, ``k3 + k2`` when it fades with the rate (at rest it has not faded)."""
+    if e < 0.0:
+        return c.k1
+    if c.fade == "rate":
+        return c.k3 + c.k2
+    z = e / c.v_c
+    return c.k3 + c.k2 * np.exp(-z) * (1.0 - z)
+
+
+#: tangent stiffness of one gear at rest at a gear deflection (m, + draft, beyond the
+#: slack), N/m, for the models whose force is a function of the deflection and its rate
+#: alone (a hysteretic gear's depends on its history: not here)
+_TANGENTS = {"linear": lambda c, e: c.stiffness, "simplified": _simplified_tangent}
+
+
+def operating_stiffness(c, d: float) -> float | None:
+    """Tangent stiffness of coupling ``c`` at rest at the coupling deflection ``d`` (m from
+    neutral, + draft, its slack included), N/m: 0 inside the slack; beyond it one gear's
+    tangent at its share of the deflection, over the gears in series, plus the solid
+    gear's stiffness past the travel. None for a hysteretic gear (its small-amplitude
+    stiffness depends on where in its band it is). The small oscillations of a train
+    about a steady state ring at the modes of these stiffnesses (:mod:`ltdsim.modal`)."""
+    tangent = _TANGENTS.get(c.model)
+    if tangent is None:
+        return None
+    h = 0.5 * c.slack
+    if abs(d) <= h and c.slack > 0.0:
+        return 0.0
+    e = (d - h if d > 0.0 else d + h) / c.gears
+    k = tangent(c, e)
+    if c.travel is not None and abs(e) > c.travel:
+        k += c.solid_stiffness
+    return k / c.gears
+
+
+def stiffest(c) -> float:
+    """Tangent stiffness of coupling ``c`` at its stiffest, N/m, solid closure included:
+    one gear's over its ``gears`` in series (the fixed-step stability check)."""
+    return REGISTRY[c.model].stiffest(c) / c.gears
 
 
 def _check_registry() -> None:

@@ -232,12 +232,13 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
 
 
 def _stiffness(c, which: str) -> float:
-    """Linearised stiffness of a coupler, N/m: in draft at rest ("draft": a simplified
+    """Linearised stiffness of a coupling, N/m: in draft at rest ("draft": a simplified
     coupler's k2 + k3, the nonlinear term unfaded) or in buff ("buff": k1); a linear
-    coupler's stiffness either way (the registry's, ltdsim.coupler_models)."""
+    coupler's stiffness either way; its gears in series (the registry's,
+    ltdsim.coupler_models.linearised_stiffness, as the kernel simulates it)."""
     from ltdsim.coupler_models import linearised_stiffness
 
-    k = linearised_stiffness(c, "high" if which == "draft" else "low")
+    k = linearised_stiffness(c, which)
     if k is None:
         raise ValueError(f"no {which} stiffness for a {c.model!r} coupler: linearise it by "
                          "hand")

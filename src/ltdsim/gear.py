@@ -286,8 +286,9 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
       E / (F X)``).
 
     A connection between two wagons has a gear in each wagon's end, in series: with
-    ``series = 2`` the tables describe the pair (deflections doubled at the same
-    forces, twice the travel and the capacity).
+    ``series = 2`` the coupler keys say so (``gears = 2``: the tables describe one gear,
+    the coupling deflects twice as far at the same forces, with twice the travel and the
+    capacity; ltdsim.coupler_models.coupler_force).
 
     Parameters
     ----------
@@ -310,9 +311,9 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
 
     Returns
     -------
-    dict of coupler keys: ``model``, ``loading``, ``unloading`` (``[m, N]`` pairs),
-    ``travel`` (m), ``k_locked`` (N/m) and ``exponent`` (the ``n`` found, for reports;
-    not a coupler key).
+    dict of coupler keys: ``model``, ``loading``, ``unloading`` (``[m, N]`` pairs, one
+    gear), ``travel`` (m, one gear), ``k_locked`` (N/m), ``gears`` (``series``) and
+    ``exponent`` (the ``n`` found, for reports; not a coupler key).
     """
     from scipy.optimize import brentq
 
@@ -348,13 +349,13 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
     c = brentq(lambda c: _release_work(x, f_l, c, k_locked) - (1.0 - absorptivity) * capacity,
                0.0, 1.0 - 1e-9, xtol=1e-12)
     f_u = c * f_l
-    x = series * x  # the same force deflects each gear of a series by x
     return {
         "model": "table",
         "loading": [[float(a), float(b)] for a, b in zip(x, f_l)],
         "unloading": [[float(a), float(b)] for a, b in zip(x, f_u)],
-        "travel": float(series * travel),
-        "k_locked": float(k_locked / series),
+        "travel": float(travel),
+        "k_locked": float(k_locked),
+        "gears": int(series),
         "exponent": float(n),
     }
 
@@ -392,7 +393,8 @@ def table_toml(gear: dict, *, slack: float = 0.0, comment: str = "") -> str:
     lines = [f"# {c}".rstrip() for c in comment.splitlines()]
     lines += ['model = "table"',
               f"slack = {slack!r:<20} # m, coupling free play",
-              f"travel = {gear['travel']!r:<19} # m",
+              f"gears = {gear.get('gears', 1)!r:<20} # in series in the coupling",
+              f"travel = {gear['travel']!r:<19} # m, one gear's",
               f"k_locked = {gear['k_locked']:<17.6g} # N/m"]
     for name in ("loading", "unloading"):
         lines.append(f"{name} = [  # [deflection m, force N]")

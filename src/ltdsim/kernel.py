@@ -170,6 +170,13 @@ from ltdsim.layout import (
     D_KP,
     D_MODE,
     D_N,
+    E_AIR,
+    E_CURVE,
+    E_DAVIS,
+    E_DYN,
+    E_GRADE,
+    E_MOTOR,
+    N_ENERGY,
     D_TS,
     K_DBFADE,
     K_FMAX,
@@ -187,6 +194,7 @@ from ltdsim.layout import (
     MODE_SPEED,
     T_AMAX,
     T_DMAX,
+    T_EZ,
     T_FF,
     T_G,
     T_MTOT,
@@ -447,6 +455,8 @@ class Outputs(NamedTuple):
     ax: np.ndarray  # (records, 1 or 0) air exhausted to atmosphere so far, kg
     peaks: np.ndarray  # (n - 1, N_PEAKS) peak coupler forces over every step, PK_* columns
     m: np.ndarray  # (records, drives, N_DRIVE_SIGNALS) induction drives' signals (DS_*)
+    e: np.ndarray  # (records, N_ENERGY + n - 1 + 1 or 0) the energy states (E_* then one
+    #                per coupler), J, and the train's kinetic energy, J (solver.energy)
 
 
 def make_train(low) -> Train:
@@ -1247,6 +1257,51 @@ def _force_balance(y, tr, w, dy):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
+def _energy(y, tr, w, dy):
+    """Rates (W) of the energy states at ``y[ez:]`` (``ez`` the trac slot ``T_EZ``; none
+    when it is -1): the power of each force on each vehicle at its speed, from the
+    forces this evaluation computed (:class:`Work`). Traction at the rail is split by the
+    sign of its power on each vehicle (motoring; dynamic braking, counted as the power
+    the locomotive takes back); air brakes, Davis, grade and curve resistance each count
+    the power they take from the train (the grade's is the potential energy gained, < 0
+    downhill); each coupler the power it takes, ``T (v_j - v_(j+1))`` (its gears'
+    dissipation plus the rate of what they store). Integrated with the motion by the
+    same Runge-Kutta stages, so the balance closes to the method's accuracy."""
+    ez = int(tr.trac[T_EZ])
+    if ez < 0:
+        return
+    veh = tr.veh
+    n = veh.shape[0]
+    fcons = w.fcons
+    tres = w.tres
+    motor = 0.0
+    dyn = 0.0
+    air = 0.0
+    davis = 0.0
+    grade = 0.0
+    curve = 0.0
+    for i in range(n):
+        v = y[n + i]
+        p = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] * v
+        if p > 0.0:
+            motor += p
+        else:
+            dyn -= p
+        air += w.bforce[i] * v
+        davis += davis_force(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DIV0]) * v
+        grade += tres[i, 0] * v
+        curve += tres[i, 1] * abs(v)  # (curve_force's sign rule: it opposes the motion)
+    dy[ez + E_MOTOR] = motor
+    dy[ez + E_DYN] = dyn
+    dy[ez + E_AIR] = air
+    dy[ez + E_DAVIS] = davis
+    dy[ez + E_GRADE] = grade
+    dy[ez + E_CURVE] = curve
+    for j in range(n - 1):
+        dy[ez + N_ENERGY + j] = w.force[j] * (y[n + j] - y[n + j + 1])
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
 def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements):
     resistance, brakes, traction, couplers, force balance, in that order.
@@ -1268,6 +1323,7 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     _induction(y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
+    _energy(y, tr, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -1283,6 +1339,7 @@ def rhs_split(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     _induction(y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
+    _energy(y, tr, w, dy)
 
 
 @njit(cache=True, inline="always")
@@ -1973,6 +2030,15 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
     for kd in range(out.m.shape[1]):
         for q in range(N_DRIVE_SIGNALS):
             out.m[r, kd, q] = w.dsig[kd, q]
+    ne = out.e.shape[1]
+    if ne > 0:
+        ez = int(trac[T_EZ])
+        for q in range(ne - 1):
+            out.e[r, q] = y[ez + q]
+        kin = 0.0
+        for i in range(n):
+            kin += 0.5 * veh[i, V_MASS] * y[n + i] * y[n + i]
+        out.e[r, ne - 1] = kin
     sig = w.sig[0]
     out_s[r, S_TRACTION] = sig["traction"]
     adh = 0.0

@@ -22,7 +22,7 @@ from ltdsim.layout import (
     D_AW, D_BCTRL, D_BFULLSUM, D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP,
     D_BTAUA, D_BTAUR, D_BVS, D_FILT, D_MODE, K_DBFADE, K_FMAX, K_MADH, K_NLEN, K_NOFF,
     K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH, K_Z, MODE_FORCE, MODE_NOTCH, MODE_SPEED, N_DRV,
-    N_KCOL, N_VCOL, T_REF, V_BDELAY, V_BFRIC, V_BFULL, V_BMU, V_BNTAB, V_BSHOE, V_BTAB, V_BZ,
+    N_ENERGY, N_KCOL, N_VCOL, T_EZ, T_REF, V_BDELAY, V_BFRIC, V_BFULL, V_BMU, V_BNTAB, V_BSHOE, V_BTAB, V_BZ,
     V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_MASS, V_P0, V_SHARE, V_WMASS,
 )
 from ltdsim.physics.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
@@ -148,6 +148,11 @@ class Lowered:
         return self.cpl[:, P_D0]
 
     @property
+    def energy_state(self) -> int:
+        """Index in ``y0`` of the first energy state, -1 without energy accounting."""
+        return int(self.trac[T_EZ])
+
+    @property
     def speed_vehicle(self) -> int:
         """Index of the vehicle whose speed the driver reads (the lead consist's first)."""
         return int(self.trac[T_REF])
@@ -247,6 +252,15 @@ def lower(s: Scenario) -> Lowered:
         share = cons[k, K_FMAX] / cons[:, K_FMAX].sum()
         cons[k, K_RATE] = jerk * m_total * share
 
+    # the energy states (solver.energy): among the mechanical ones, before any brake state
+    ez = -1
+    if s.solver.energy:
+        ez = ny
+        ne = N_ENERGY + nc
+        ny += ne
+        y0_extra.extend([0.0] * ne)
+        kinds.extend(["energy"] * ne)
+
     ref = int(cons[0, K_VEH])  # the lead consist's first vehicle measures speed
     # the speed controller's output is a demanded acceleration of the train (force =
     # output x train mass) or of the lead locomotive (x its own mass); either way
@@ -258,7 +272,7 @@ def lower(s: Scenario) -> Lowered:
     ratio = m_total / m_demand  # (exactly 1 for the train)
     trac = np.array([cons[0, K_FMAX], cons[0, K_PMAX], cons[0, K_MADH],
                      t.max_accel * ratio, t.max_decel * ratio,
-                     1.0 if t.feedforward else 0.0, m_demand, g, float(ref)])
+                     1.0 if t.feedforward else 0.0, m_demand, g, float(ref), float(ez)])
 
     drv = np.zeros(N_DRV)
     if d.mode == "speed":
@@ -353,13 +367,13 @@ def lower(s: Scenario) -> Lowered:
              "force": sv.atol * FORCE_SCALE, "fill": sv.atol,
              "pressure": sv.atol * PRESSURE_SCALE, "flow": sv.atol * FLOW_SCALE,
              "position": sv.atol,
-             # a running total of flows the other states control; it feeds nothing back
-             "exhausted": np.inf}
+             # running totals of flows the other states control; they feed nothing back
+             "exhausted": np.inf, "energy": np.inf}
     scale.update({"flux": sv.atol, "volt": sv.atol * VOLT_SCALE,
                   "omega": sv.atol, "torque": sv.atol * FORCE_SCALE})
     atol = np.array([scale[k] for k in kinds])
     atol[gear_f1] = sv.atol * GEAR_FORCE_SCALE
-    rtol = np.array([0.0 if k in ("x", "exhausted") else sv.rtol for k in kinds])
+    rtol = np.array([0.0 if k in ("x", "exhausted", "energy") else sv.rtol for k in kinds])
     return Lowered(
         veh=veh, cons=cons, cpl_model=cpl_model, cpl=cpl,
         track_pos=track_pos, track_grade=track_grade, track_curv=track_curv,

@@ -1,12 +1,18 @@
-"""Modal analysis of a train linearised at a coupler stiffness (paper §5.2, Fig. 8).
+"""Modal analysis of the train the kernel simulates, linearised on one branch of its
+couplings (paper §5.2, Fig. 8).
 
 The train is a free chain: masses ``m_i`` (kg) joined by springs ``k_j`` (N/m). Its
 natural frequencies and mass-normalised mode shapes solve ``K phi = w^2 M phi``
 (``scipy.linalg.eigh``). A free train has exactly one rigid-body mode at 0 Hz.
 
-The study linearises at the simplified coupler's recoil stiffness ``k1`` ("low") and
-at ``k2 + k3`` ("high"). A coupling has a draft gear at each wagon end, so two gears
-act in series (``series = 2`` halves the stiffness of each coupling).
+Each spring is the coupling's own linearised stiffness
+(:func:`ltdsim.coupler_models.linearised_stiffness`): its model's tangent on the branch
+it is linearised on, ``"draft"`` (tension: a simplified coupler's ``k2 + k3``, the study's
+"high" case) or ``"buff"`` (compression: its recoil stiffness ``k1``, the study's "low"
+case), divided by the coupling's ``gears`` in series, exactly as the kernel applies the
+law (:func:`ltdsim.coupler_models.coupler_force`). The study's "low" and "high" are
+branch names here because for some of its cases (LHHL among them) the buff branch is the
+stiffer one.
 """
 
 from __future__ import annotations
@@ -56,30 +62,58 @@ def chain_modes(masses, k, lead: str = "free"):
     return np.sqrt(w2) / (2 * np.pi), phi
 
 
-def coupling_stiffness(scenario: Scenario, which: str = "low", series: int = 2) -> np.ndarray:
-    """Linearised stiffness of every coupling, N/m.
+def coupling_stiffness(scenario: Scenario, branch="draft") -> np.ndarray:
+    """Linearised stiffness of every coupling, N/m, as the kernel simulates it.
 
-    ``which``: "low" (recoil k1 of a simplified coupler), "high" (k2 + k3), or a number
-    (N/m, every coupler). Linear couplers use their stiffness either way. ``series``
-    gears per coupling act in series.
+    ``branch``: "draft" or "buff" (each coupling's tangent on that branch, its gears in
+    series: :func:`ltdsim.coupler_models.linearised_stiffness`), or a number (N/m, every
+    coupling).
     """
     from ltdsim.coupler_models import linearised_stiffness
 
+    if not isinstance(branch, str):
+        k = np.asarray(branch, dtype=float)
+        return np.full(scenario.n_couplers, float(k)) if k.ndim == 0 else k
     out = []
     for j in range(scenario.n_couplers):
         c = scenario.coupler(j)
-        k = float(which) if not isinstance(which, str) else linearised_stiffness(c, which)
+        k = linearised_stiffness(c, branch)
         if k is None:
-            raise ValueError(f"coupler {j} is {c.model!r}: give a stiffness in N/m to linearise it")
-        out.append(k / series)
+            raise ValueError(f"coupler {j + 1} is {c.model!r}: give a stiffness in N/m "
+                             "to linearise it")
+        out.append(k)
     return np.array(out)
 
 
-def train_modes(scenario: Scenario, which: str = "low", series: int = 2,
-                lead: str = "free") -> pd.DataFrame:
-    """Table of the train's modes: frequency (Hz) and mode shape per vehicle."""
+def operating_stiffness(scenario: Scenario, deflections) -> np.ndarray:
+    """Tangent stiffness of every coupling at rest at the coupling deflections
+    ``deflections`` (m from neutral, + draft, one per coupling; e.g. each coupler's mean
+    over a steady stretch of a run), N/m, its gears in series
+    (:func:`ltdsim.coupler_models.operating_stiffness`). Pass the result to
+    :func:`train_modes` as ``branch`` to get the modes about that state."""
+    from ltdsim.coupler_models import operating_stiffness as tangent
+
+    d = np.asarray(deflections, dtype=float)
+    if d.shape != (scenario.n_couplers,):
+        raise ValueError(f"need one deflection per coupling ({scenario.n_couplers}), got "
+                         f"{d.shape}")
+    out = []
+    for j in range(scenario.n_couplers):
+        c = scenario.coupler(j)
+        k = tangent(c, float(d[j]))
+        if k is None:
+            raise ValueError(f"coupler {j + 1} is {c.model!r}: its stiffness about a state "
+                             "depends on its history; give a stiffness in N/m")
+        out.append(k)
+    return np.array(out)
+
+
+def train_modes(scenario: Scenario, branch="draft", lead: str = "free") -> pd.DataFrame:
+    """Table of the train's modes: frequency (Hz) and mode shape per vehicle, with every
+    coupling linearised on ``branch`` (see :func:`coupling_stiffness`; an array gives
+    each coupling's stiffness, N/m, e.g. from :func:`operating_stiffness`)."""
     m = [v.mass for v in scenario.vehicles]
-    f, phi = chain_modes(m, coupling_stiffness(scenario, which, series), lead)
+    f, phi = chain_modes(m, coupling_stiffness(scenario, branch), lead)
     # sign convention: the lead vehicle's entry positive (or the first nonzero one)
     for i in range(phi.shape[1]):
         nz = np.flatnonzero(np.abs(phi[:, i]) > 1e-12)

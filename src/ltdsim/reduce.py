@@ -37,7 +37,7 @@ DEFAULT_BOUNDS = {
     "k1": (1e5, 1e8),  # N/m
     "k2": (1e3, 5e7),  # N/m
     "k3": (1e5, 1e8),  # N/m
-    "v_c": (1e-2, 5.0),  # m/s
+    "v_c": (1e-2, 5.0),  # m (fade with the deflection) or m/s (with the rate)
 }
 #: default rig mass (force rig): the nine wagons behind the study's first coupler, kg
 DEFAULT_MASS = 8.1e5
@@ -62,8 +62,9 @@ class DeflectionObjective:
     Picklable for worker processes.
     """
 
-    def __init__(self, slack, d, dd, target):
+    def __init__(self, slack, d, dd, target, fade: str = "deflection"):
         self.slack = float(slack)
+        self.by_rate = fade == "rate"
         self.d = np.asarray(d, dtype=float)
         self.dd = np.asarray(dd, dtype=float)
         self.target = np.asarray(target, dtype=float)
@@ -71,7 +72,7 @@ class DeflectionObjective:
     def force(self, values) -> np.ndarray:
         b, k1, k2, k3, v_c = values
         return coupler_simplified(self.d, self.dd, self.slack, 0.0, b, k1, k2, k3, v_c,
-                                  np.inf, 0.0)
+                                  self.by_rate, np.inf, 0.0)
 
     def __call__(self, log_values) -> float:
         err = self.force(10.0 ** np.asarray(log_values)) - self.target
@@ -85,8 +86,10 @@ class RigObjective:
     Picklable, so that differential_evolution can send it to worker processes.
     """
 
-    def __init__(self, slack, t, force_in, target, mass, dt, method="ode3"):
+    def __init__(self, slack, t, force_in, target, mass, dt, method="ode3",
+                 fade: str = "deflection"):
         self.slack = slack
+        self.fade = fade
         self.t = np.ascontiguousarray(t, dtype=float)
         self.force_in = np.ascontiguousarray(force_in, dtype=float)
         self.target = np.asarray(target, dtype=float)
@@ -99,7 +102,8 @@ class RigObjective:
         # (a candidate of the search, not user input: built without validation, so that
         # search bounds wider than the scenario's ranges still evaluate)
         c = SimplifiedCoupler.model_construct(
-            slack=self.slack, **dict(zip(PARAMETERS, (float(v) for v in values))))
+            slack=self.slack, fade=self.fade,
+            **dict(zip(PARAMETERS, (float(v) for v in values))))
         model, cpl, ctab = _lowered_gear(c)
         return integrate_rig(model, cpl, ctab, MODE_FORCE, self.t, self.force_in,
                              self.force_in, self.mass, self.t[-1] - self.t[0], self.dt,
@@ -127,15 +131,21 @@ class Reduction:
     target_force: np.ndarray = field(repr=False)
     target_deflection: np.ndarray = field(repr=False)
     fitted_force: np.ndarray = field(repr=False)
+    #: what the fitted k2 fades with ("deflection" or "rate", the simplified coupler's
+    #: key ``fade``)
+    fade: str = "deflection"
 
     def coupler(self, slack: float) -> CouplerParams:
         """The fitted simplified coupler as scenario parameters."""
-        return CouplerParams(model="simplified", slack=slack, **self.parameters)
+        return CouplerParams(model="simplified", slack=slack, fade=self.fade,
+                             **self.parameters)
 
     def toml(self, slack: float) -> str:
         """The fitted coupler as a ``[couplers.default]`` TOML table."""
-        lines = ["[couplers.default]", 'model = "simplified"', f"slack = {slack!r}"]
-        units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m", "v_c": "m/s"}
+        lines = ["[couplers.default]", 'model = "simplified"', f"slack = {slack!r}",
+                 f'fade = "{self.fade}"']
+        units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m",
+                 "v_c": "m/s" if self.fade == "rate" else "m"}
         lines += [f"{k} = {v:.6g}   # {units[k]}" for k, v in self.parameters.items()]
         lines.append(f"# fitted by ltdsim reduce: fit {self.fit_percent:.2f} %")
         return "\n".join(lines) + "\n"
@@ -144,7 +154,7 @@ class Reduction:
 def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None,
                 mass: float = DEFAULT_MASS, dt: float = 5e-4, bounds: dict | None = None,
                 workers: int = 1, tol: float = 1e-4, maxiter: int = 1000, popsize: int = 15,
-                seed: int = 0, progress=None) -> Reduction:
+                seed: int = 0, progress=None, fade: str = "deflection") -> Reduction:
     """Fit a simplified coupler to ``target``.
 
     Parameters
@@ -170,6 +180,8 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
         Passed to ``differential_evolution`` (relative tolerance, generations).
     progress : callable, optional
         Called as ``progress(generation, maxiter, best_cost)`` after each generation.
+    fade : {"deflection", "rate"}
+        What the fitted coupler's k2 fades with (the simplified coupler's key ``fade``).
     """
     from ltdsim.gear import drive_deflection, drive_force
 
@@ -179,11 +191,12 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
         t, d = deflection_chain(travel, target.slack, segments, dt=dt)
         ref = drive_deflection(target, t, d, dt=dt)
         objective = DeflectionObjective(target.slack, ref.deflection.values, ref.rate.values,
-                                        ref.force.values)
+                                        ref.force.values, fade)
     elif rig == "force":
         t, f_in = sine_chain(segments, dt=dt)
         ref = drive_force(target, t, f_in, mass=mass, dt=dt)
-        objective = RigObjective(target.slack, t, f_in, ref.force.values, mass, dt)
+        objective = RigObjective(target.slack, t, f_in, ref.force.values, mass, dt,
+                                 fade=fade)
     else:
         raise ValueError(f"rig must be 'deflection' or 'force', got {rig!r}")
     b = {**DEFAULT_BOUNDS, **(bounds or {})}
@@ -216,4 +229,4 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
         evaluations=int(res.nfev), generations=generation[0], message=str(res.message),
         time=ref.time.values, force_in=ref.deflection.values if rig == "deflection" else f_in,
         target_force=ref.force.values, target_deflection=ref.deflection.values,
-        fitted_force=fitted)
+        fitted_force=fitted, fade=fade)

@@ -83,6 +83,8 @@ def make_rhs(scenario: Scenario):
     slack = par("slack")
     stiffness, damping, preload = par("stiffness"), par("damping"), par("preload")
     k1, k2, k3, v_c = par("k1"), par("k2"), par("k3"), par("v_c", 1.0)
+    by_rate = np.array([getattr(c, "fade", "deflection") == "rate" for c in couplers])
+    gears = par("gears", 1.0)
     travel, solid = par("travel", np.inf), par("solid_stiffness")
     sign0 = {"neutral": 0.0, "stretched": 1.0, "bunched": -1.0}[s.initial.couplers]
     d0 = sign0 * 0.5 * slack
@@ -109,13 +111,15 @@ def make_rhs(scenario: Scenario):
         res = (davis_resistance(v, da, db, dc, v0)
                + grade_resistance(wm, grade[kg], g)
                + curve_resistance(v, wm, curvature[kc], s.track.curve_h, g))
-        dx = x[:-1] - x[1:] + d0
-        dv = v[:-1] - v[1:]
+        # each of a coupling's gears in series takes its share of the deflection and
+        # slack and carries the whole force
+        dx = (x[:-1] - x[1:] + d0) / gears
+        dv = (v[:-1] - v[1:]) / gears
         tension = np.where(
             linear,
-            coupler_linear(dx, dv, slack, stiffness, damping, travel, solid),
-            coupler_simplified(dx, dv, slack, preload, damping, k1, k2, k3, v_c, travel,
-                               solid))
+            coupler_linear(dx, dv, slack / gears, stiffness, damping, travel, solid),
+            coupler_simplified(dx, dv, slack / gears, preload, damping, k1, k2, k3, v_c,
+                               by_rate, travel, solid))
         extra = []
         if speed:
             pid = d.pid

@@ -742,71 +742,84 @@ class _Report:
     def modal(self) -> None:
         modal = self.results["modal"]
         bands = self.T["figure8_modal_bands"]
-        study = {"low": bands["low_stiffness_k1_Hz"], "high": bands["high_stiffness_k2_plus_k3_Hz"]}
-        label = {"low": "k1", "high": "k2 + k3"}
-        series = modal.get("series", 2)
+        # the study's "low" is its k1 case (the buff branch), its "high" k2 + k3 (draft)
+        study = {"buff": bands["low_stiffness_k1_Hz"],
+                 "draft": bands["high_stiffness_k2_plus_k3_Hz"]}
+        label = {"buff": "k1", "draft": "k2 + k3"}
+        name = {"buff": "buff (compression), the study's \"low\"",
+                "draft": "draft (tension), the study's \"high\""}
+        gears = modal.get("gears", 1)
         rows = []
-        for which in ("low", "high"):
-            m = modal.get(which, {})
+        for branch in ("buff", "draft"):
+            m = modal.get(branch, {})
             if "free" not in m:
                 continue
             f, h = np.array(m["free"]), np.array(m["held"])
-            rows.append({"stiffness": f"{which}: {label[which]} of case {self.case}",
-                         "per gear [MN/m]": m["coupling_stiffness_N_m"] * series / 1e6,
+            rows.append({"branch": f"{name[branch]}: {label[branch]} of case {self.case}",
+                         "coupling stiffness [MN/m]": m["coupling_stiffness_N_m"] / 1e6,
                          "lowest [Hz]": f[1], "highest [Hz]": f[-1],
                          "locomotive held: lowest [Hz]": h[0], "held: highest [Hz]": h[-1],
-                         "study Fig. 8: lowest [Hz]": study[which][0],
-                         "study: highest [Hz]": study[which][1]})
-        for which, pick in (("low", "the softest k1"), ("high", "the stiffest k2 + k3")):
-            w = modal.get(f"widest_{which}")
+                         "study Fig. 8: lowest [Hz]": study[branch][0],
+                         "study: highest [Hz]": study[branch][1]})
+        for branch, pick in (("buff", "the softest k1"), ("draft", "the stiffest k2 + k3")):
+            w = modal.get(f"widest_{branch}")
             if w:
-                rows.append({"stiffness": f"{which}: {pick} of all cases",
-                             "per gear [MN/m]": w["gear_stiffness_N_m"] / 1e6,
+                rows.append({"branch": f"{name[branch]}: {pick} of all cases",
+                             "coupling stiffness [MN/m]": w["coupling_stiffness_N_m"] / 1e6,
                              "lowest [Hz]": w["band_hz"][0], "highest [Hz]": w["band_hz"][1],
                              "locomotive held: lowest [Hz]": float("nan"),
                              "held: highest [Hz]": float("nan"),
-                             "study Fig. 8: lowest [Hz]": study[which][0],
-                             "study: highest [Hz]": study[which][1]})
+                             "study Fig. 8: lowest [Hz]": study[branch][0],
+                             "study: highest [Hz]": study[branch][1]})
         if not rows:
             return
         tm = pd.DataFrame(rows)
-        note = (f"<p class='note'>The train linearised at one coupler stiffness, {series} "
-                "draft gears in series per coupling (one in each wagon end). \"Free\": the "
-                "train on its own (one rigid-body mode at 0 Hz, not listed); \"held\": the "
-                "locomotive's speed held by the controller.")
-        lo, hi = modal.get("low", {}), modal.get("high", {})
+        note = ("<p class='note'>The train linearised with every coupling on one branch of "
+                "its law, at the stiffness the simulation uses (" +
+                ("one gear per coupling: the simplified coupler's law is the coupling's, as "
+                 "the study's Eq. 10 writes it" if gears == 1 else
+                 f"{gears} gears in series per coupling") +
+                "; <a href='#readings'>ltdsim's readings</a>). \"Free\": the train on its "
+                "own (one rigid-body mode at 0 Hz, not listed); \"held\": the locomotive's "
+                "speed held by the controller.")
+        lo, hi = modal.get("buff", {}), modal.get("draft", {})
         if "free" in lo and "free" in hi and \
                 hi["coupling_stiffness_N_m"] < lo["coupling_stiffness_N_m"]:
-            note += (f" In case {html.escape(self.case)} k2 + k3 is below k1, so the "
-                     "\"high\" stiffness gives the lower frequencies.")
+            note += (f" In case {html.escape(self.case)} k2 + k3 is below k1, so the draft "
+                     "branch (the study's \"high\") gives the lower frequencies.")
         self.parts += ["<h2 id='fig8'>Fig. 8: natural frequencies and mode shapes</h2>",
                        note + "</p>", table_html(tm), _csv(tm, self.out, "modal_bands.csv")]
         self.parts += [figure_html(p, f"Fig. 8: mode shapes, {p.stem.split('_')[-1]} "
-                                      f"stiffness, case {self.case}") for p in
-                       (self.out / "fig8_modes_low.png", self.out / "fig8_modes_high.png")
+                                      f"branch, case {self.case}") for p in
+                       (self.out / "fig8_modes_buff.png", self.out / "fig8_modes_draft.png")
                        if p.is_file()]
-        allf = np.concatenate([np.array(modal[w]["held"] + modal[w]["free"][1:])
-                               for w in ("low", "high") if "free" in modal.get(w, {})])
-        self.take.append(f"Frequency band to keep clear: {allf.min():.2f}-{allf.max():.2f} "
-                         f"Hz in case {html.escape(self.case)} (the train's longitudinal "
-                         "modes; excitation there, e.g. from traction control, rings the "
-                         f"couplers); the study gives {study['low'][0]}-{study['high'][1]} Hz "
-                         "over its low and high stiffness.")
-        for which in ("low", "high"):
-            w = modal.get(f"widest_{which}")
+        for branch in ("draft", "buff"):
+            m = modal.get(branch, {})
+            if "free" not in m:
+                continue
+            allf = np.array(m["held"] + m["free"][1:])
+            self.take.append(f"Frequency band to keep clear on the {branch} branch: "
+                             f"{allf.min():.2f}-{allf.max():.2f} Hz in case "
+                             f"{html.escape(self.case)} (the simulated train's longitudinal "
+                             "modes with every coupling in " +
+                             ("tension" if branch == "draft" else "compression") +
+                             ", free or held; excitation there rings the couplers); the "
+                             f"study's Fig. 8 gives {study[branch][0]}-{study[branch][1]} Hz "
+                             f"for {label[branch]}.")
+        for branch in ("buff", "draft"):
+            w = modal.get(f"widest_{branch}")
             if not w:
                 continue
-            (a, b), (sa, sb) = w["band_hz"], study[which]
+            (a, b), (sa, sb) = w["band_hz"], study[branch]
             ok = abs(a / sa - 1) <= 0.1 and abs(b / sb - 1) <= 0.1
-            why = (f"{label[which]} = {w['gear_stiffness_N_m'] / 1e6:.2f} MN/m per gear, "
-                   f"the {'softest' if which == 'low' else 'stiffest'} of the cases; the "
-                   "study does not say which case its Fig. 8 shows")
+            why = (f"{label[branch]} = {w['coupling_stiffness_N_m'] / 1e6:.2f} MN/m per "
+                   f"coupling, the {'softest' if branch == 'buff' else 'stiffest'} of the "
+                   "cases; the study does not say which case its Fig. 8 shows")
             if not ok:
                 r = (sb / b) ** 2
                 why += (f"; {sb} Hz needs couplings {r:.1f} times stiffer" if r > 1 else
-                        f"; {sb} Hz needs couplings {1 / r:.1f} times softer") + (
-                    ", beyond any of the study's stiffnesses")
-            self.claim(f"Modal band with the {which} stiffness {label[which]} (§5.2, Fig. 8)",
+                        f"; {sb} Hz needs couplings {1 / r:.1f} times softer")
+            self.claim(f"Modal band on the {branch} branch, {label[branch]} (§5.2, Fig. 8)",
                        f"{sa}-{sb} Hz", f"{a:.2f}-{b:.2f} Hz", "yes" if ok else "no", why)
 
     # -------------------------------------------------------------- Tables 6-7, Fig. 9
@@ -827,7 +840,9 @@ class _Report:
                           "study max [kN]": _kn(s7[0]) if s7 else float("nan"),
                           "study RMS [kN]": _kn(s7[1]) if s7 else float("nan"),
                           "ltdsim RMS of the 0-10 Hz content [kN]": _kn(r.band_rms_N)})
-            rows6.append({"phase": r.phase, "coupler [-]": num, "ltdsim main peaks": r.peaks,
+            rows6.append({"phase": r.phase, "coupler [-]": num,
+                          "branch engaged": getattr(r, "branches", ""),
+                          "ltdsim main peaks": r.peaks,
                           "study (Table 6)": t6s.get(r.phase, {}).get(str(num), "")
                           if study_case else ""})
         t6, t7 = pd.DataFrame(rows6), pd.DataFrame(rows7)
@@ -835,10 +850,13 @@ class _Report:
         shown7 = t7.drop(columns=["ltdsim RMS of the 0-10 Hz content [kN]"])
         self.parts += [
             "<h2 id='table6'>Table 6: main spectral peaks per phase</h2>",
-            "<p class='note'>Amplitude spectra of the mean-free coupler force over each 10 s "
-            "phase (0.1 Hz lines). Each peak is matched to the nearest natural frequency of "
-            "the train with the locomotive held by the speed controller, and labelled a low- "
-            "(k1) or high- (k2 + k3) stiffness mode.</p>",
+            "<p class='note'>Amplitude spectra of the coupler force over each 10 s phase, "
+            "its straight-line trend removed first (0.1 Hz lines). Each peak from 0.2 Hz "
+            "(twice the resolution: a line nearer 0 Hz is the window's trend, not a mode) is "
+            "matched to the nearest natural frequency of the train, locomotive held by the "
+            "speed controller, linearised on the branch the coupler is on in that phase "
+            "(draft: k2 + k3; buff: k1; both when it spends at least a fifth of the phase "
+            "in each), each coupling as the simulation has it.</p>",
             table_html(t6), _csv(t6, self.out, "table6_spectral_peaks.csv"),
             "<h2 id='table7'>Table 7: spectral maxima and RMS per phase</h2>",
             "<p class='note'>Largest line = the largest single sinusoid's amplitude; spectrum "
@@ -874,6 +892,61 @@ class _Report:
                        + (f"; ltdsim's largest line, at {r['at [Hz]']:.1f} Hz, is the force's "
                           "rise over the window as the train picks up speed"
                           if r["at [Hz]"] <= 0.15 else ""))
+
+    # -------------------------------------------------------------- readings
+    def readings(self) -> None:
+        """The model readings this run rests on (ltdsim's, where the study is silent or
+        its printed equations are ambiguous), each with what the alternative gives."""
+        c = self.sc.coupler(0)
+        items = []
+        if c.model == "simplified":
+            items.append(
+                "<b>Eq. 9's nonlinear stiffness fades with the gear's " +
+                ("deflection</b>, <code>k2 e exp(-e/v)</code> with v = "
+                 f"{c.v_c:g} m, the equation as printed: a spring (energy it takes in "
+                 "it gives back) plus the damper b, so the coupler cannot create energy. "
+                 "The alternative, a fade with the deflection <i>rate</i> "
+                 "(<code>exp(-|de/dt|/v)</code>, v in m/s; key "
+                 "<code>couplers.default.fade = \"rate\"</code>), returns up to "
+                 "k2 e&sup2;/2 per cycle when a gear loads fast and unloads slowly: over "
+                 "this run several couplers then put out more energy than they absorb."
+                 if c.fade == "deflection" else
+                 "rate</b> (<code>exp(-|de/dt|/v)</code>, v = "
+                 f"{c.v_c:g} m/s; <code>fade = \"rate\"</code>, not the default): a law "
+                 "that can return more energy than it takes (up to k2 e&sup2;/2 per cycle "
+                 "loaded fast and unloaded slowly); the default, as printed, fades with "
+                 "the deflection and is passive."))
+            items.append("<b>Draft and buff branches.</b> Eq. 9's two branches are read "
+                         "as tension (k3, k2) and compression (k1), not as loading and "
+                         "unloading: read the other way, every case with k1 &gt; k2 + k3 "
+                         "(8 of the 16) would return more energy than it takes each "
+                         "cycle.")
+        modal = self.results.get("modal", {})
+        tops = [modal[b]["free"][-1] for b in ("buff", "draft") if "free" in modal.get(b, {})]
+        top = (f" The simulated train's highest mode is {max(tops):.2f} Hz; two gears in "
+               f"series would bring it to {max(tops) / np.sqrt(2):.2f} Hz, below the "
+               "3.3 Hz line the study finds in its spectra (§5.2)." if tops else "")
+        items.append("<b>One coupling, " + (
+            "one gear.</b> The law describes the whole coupling, as the study's Eq. 10 "
+            "writes one Eq. 9 per coupling." + top + " With two gears in series "
+            "(<code>gears = 2</code>, a gear in each wagon end) every coupling would be "
+            "half as stiff and every mode 1/&radic;2 as high." if c.gears == 1 else
+            f"{c.gears} gears in series.</b> Each gear carries the coupling's force and "
+            "takes half its deflection beyond the slack; the study's Eq. 10 writes one "
+            "law per coupling (<code>gears = 1</code>).") +
+            " The same coupling is used in the simulation, the modal analysis and the "
+            "gear-travel check.")
+        items.append("<b>Start</b>: couplings " + {
+            "neutral": "centred in their slack", "stretched": "stretched to the end of "
+            "their slack", "bunched": "bunched"}[self.sc.initial.couplers] +
+            " (the study does not say); <b>speed profile</b>: reconstructed from the "
+            "study's phase times (docs/paper-scenario.md); <b>stopping</b>: the "
+            "locomotive's dynamic brake only (the study gives no air-brake parameters).")
+        self.parts += ["<h2 id='readings'>Model readings this run rests on</h2>",
+                       "<p class='note'>Where the study is silent or its printed equations "
+                       "can be read more than one way, ltdsim chooses; these are its "
+                       "choices, not the study's statements (docs/model.md).</p><ul>" +
+                       "".join(f"<li>{i}</li>" for i in items) + "</ul>"]
 
     # -------------------------------------------------------------- the page
     def page(self, scenario_path: Path) -> str:
@@ -915,6 +988,7 @@ def write_report(out: Path, results: dict, scenario: Scenario, case: str,
                  scenario_path: Path) -> Path:
     """Write ``<out>/index.html`` and the CSV tables from the study's stage results."""
     rep = _Report(Path(out), results, scenario, case)
+    rep.readings()
     rep.base_run()
     rep.reduction()
     rep.speed_error()

@@ -46,7 +46,10 @@ def ramp_error(sys, t_end: float | None = None) -> float:
                   np.real(control.poles(sys)) < 0.0):
         return float("inf")
     info = control.step_info(sys)
-    horizon = t_end or max(20.0 * float(info["SettlingTime"]), 1.0)
+    settling = float(info["SettlingTime"])
+    if t_end is None and not np.isfinite(settling):
+        return float("inf")  # the step response never settles: no steady ramp error
+    horizon = t_end or max(20.0 * settling, 1.0)
     if sys.isdtime():
         t = np.arange(int(np.ceil(horizon / sys.dt)) + 1) * sys.dt
     else:

@@ -38,7 +38,7 @@ from pydantic import (
 
 from ltdsim.creep_schema import Creep, wheelset_row
 from ltdsim.errors import ScenarioError, _printable
-from ltdsim.layout import DRIVE_SIGNALS
+from ltdsim.layout import DRIVE_SIGNALS, ENERGY_TERMS
 
 # Physical sanity bounds used in validation (documented in docs/scenario.md).
 MAX_MASS = 1.0e6  # kg, one vehicle
@@ -78,11 +78,16 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
     return points
 
 
+#: the energy balance's result variables (``solver.energy = true``), J: the work terms
+#: (:data:`ltdsim.layout.ENERGY_TERMS`), each coupler's net work, the train's kinetic
+#: energy, and what the balance leaves unaccounted
+ENERGY_VARIABLES = (*ENERGY_TERMS, "coupler_energy", "kinetic_energy",
+                    "energy_balance_error")
 #: result variables a run can leave out of its recording (``solver.record``)
 RECORDABLE = ("position", "velocity", "acceleration", "coupler_deflection", "coupler_force",
               "brake_force", "brake_cylinder", "locomotive_force", "brake_pipe_pressure",
               "auxiliary_reservoir_pressure", "brake_cylinder_pressure", "air_exhausted",
-              *DRIVE_SIGNALS)
+              *DRIVE_SIGNALS, *ENERGY_VARIABLES)
 
 
 class Solver(_Strict):
@@ -127,6 +132,12 @@ class Solver(_Strict):
         description="bs23 with brake.model = \"fluid\": largest step of the brake's "
                     "pneumatic states, which take their own error-controlled steps (a "
                     "mechanical step spans at most two of them), s")
+    energy: bool = Field(
+        False, description="account for the energy: the work of traction, brakes and "
+                           "resistances, each coupler's work and the kinetic energy, "
+                           "integrated with the motion (result variables "
+                           "traction_energy ... energy_balance_error, J); off, the run "
+                           "computes none of it")
     stability_check: bool = Field(
         True, description="refuse a fixed step above the method's largest stable step for "
                           "the train (ltdsim.stability); false runs it anyway (the run stops "
@@ -148,6 +159,15 @@ class Solver(_Strict):
         if self.t_end < self.output_interval:
             raise ValueError(f"t_end ({self.t_end:g} s) must be at least output_interval "
                              f"({self.output_interval:g} s)")
+        return self
+
+    @model_validator(mode="after")
+    def _energy_recorded(self):
+        named = sorted(set(self.record or ()) & set(ENERGY_VARIABLES))
+        if named and not self.energy:
+            raise ValueError(f"record names {', '.join(named)}, which only a run with "
+                             "energy = true computes: set solver.energy = true or leave "
+                             "them out")
         return self
 
     @property
@@ -403,6 +423,12 @@ class _CouplerBase(_Strict):
                                                  "(its keys under the ones given)")
     model: str = Field(DEFAULT_COUPLER_MODEL, description="coupler model")
     slack: float = Field(0.0, ge=0.0, le=1.0, description="total free play of the coupling, m")
+    # a coupling between two vehicles has a draft gear in each vehicle's end: with 2, the
+    # model's parameters describe one gear and two alike act in series (same force, each
+    # deflects by half the coupling's deflection beyond the slack); with 1 they describe
+    # the whole coupling (coupler_models.COMMON_COLUMNS, docs/model.md#one-coupling)
+    gears: int = Field(1, ge=1, le=2, description="gears in series in the coupling, each "
+                                                  "described by the model's keys, -")
     # gear travel beyond the slack to solid closure (optional for linear and simplified,
     # required for friction_wedge, table: its last point) and the solid gear's stiffness
     # (physics.couplers.solid_closure)
@@ -457,7 +483,17 @@ class SimplifiedCoupler(_CouplerBase):
     k1: float | None = Field(None, gt=0.0, le=1e12, description="recoil (buff) stiffness, N/m")
     k2: float = Field(0.0, ge=0.0, le=1e12, description="nonlinear (draft) stiffness, N/m")
     k3: float | None = Field(None, gt=0.0, le=1e12, description="linear (draft) stiffness, N/m")
-    v_c: float | None = Field(None, gt=0.0, le=1e3, description="critical velocity, m/s")
+    # how the nonlinear stiffness k2 fades (docs/model.md#simplified-coupler): with the
+    # gear's deflection, as Eq. 9 prints it (passive), or with its deflection rate (an
+    # earlier reading, which returns energy when a gear loads fast and unloads slowly)
+    fade: Literal["deflection", "rate"] = Field(
+        "deflection", description="what k2 fades with: the gear deflection "
+                                  "(exp(-e/v_c), v_c in m) or its rate (exp(-|de/dt|/v_c), "
+                                  "v_c in m/s)")
+    v_c: float | None = Field(None, gt=0.0, le=1e3, description="fade constant of k2: a "
+                                                               "deflection, m, or with fade "
+                                                               "= rate a critical velocity, "
+                                                               "m/s")
 
 
 class _HystereticGear(_CouplerBase):
@@ -674,11 +710,12 @@ class Couplers(_Strict):
 
     An override changes the keys it gives for coupler ``index``. An override with a
     ``model`` other than the default's keeps only the default's keys that every model
-    shares (:data:`SHARED_COUPLER_KEYS`: slack, travel, solid stiffness) and takes the
+    shares (:data:`SHARED_COUPLER_KEYS`: slack, gears, travel, solid stiffness) and takes the
     new model's own keys from itself, so the default's keys of its own model never
     reach a coupler of another model. An override that names a ``preset`` describes
-    another gear: it keeps only the default's ``slack`` (the coupling's free play, not
-    the gear's) and takes every other key from itself and its preset.
+    another gear: it keeps only the default's ``slack`` and ``gears`` (the coupling's free
+    play and how many gears it holds, not the gear's own keys) and takes every other key
+    from itself and its preset.
     """
 
     default: Coupler
@@ -1531,8 +1568,9 @@ class Scenario(_Strict):
         params = default.model_dump()
         for o in overrides:
             changed = o.model_dump(exclude_none=True, exclude={"index"})
-            if "preset" in changed:  # another gear: only the coupling's slack carries over
-                params = {"slack": params["slack"]}
+            if "preset" in changed:  # another gear: only the coupling's own keys (its
+                # slack and how many gears it holds) carry over
+                params = {"slack": params["slack"], "gears": params["gears"]}
             elif changed.get("model", params["model"]) != params["model"]:
                 # another model: the keys every model shares carry over, not the old
                 # model's own

@@ -12,10 +12,11 @@ import xarray as xr
 
 from ltdsim import kernel
 from ltdsim.errors import ScenarioError, SimulationError
-from ltdsim.layout import DRIVE_SIGNALS, N_DRIVE_SIGNALS, N_EVENT_COLUMNS
+from ltdsim.layout import (DRIVE_SIGNALS, E_MOTOR, ENERGY_TERMS, N_DRIVE_SIGNALS,
+                           N_ENERGY, N_EVENT_COLUMNS)
 from ltdsim.lowering import MAX_EVENTS, N_DRIVE_STATES, Lowered, lower
 from ltdsim.integrators import get_tableau
-from ltdsim.scenario import Scenario
+from ltdsim.scenario import ENERGY_VARIABLES, Scenario
 
 #: Units of every variable in the result dataset.
 UNITS = {
@@ -55,6 +56,7 @@ UNITS = {
     "stator_flux_q": "Wb",
     "rotor_flux_d": "Wb",
     "rotor_flux_q": "Wb",
+    **{name: "J" for name in ENERGY_VARIABLES},
 }
 
 DESCRIPTIONS = {
@@ -107,6 +109,23 @@ DESCRIPTIONS = {
     "brake_cylinder_pressure": "brake-cylinder pressure, gauge (NaN: unbraked vehicle)",
     "air_exhausted": "air the brake has let out to atmosphere since the start (vents, "
                      "exhausts, leaks; less what compressors took in)",
+    "traction_energy": "work of the traction force at the rail while motoring (its power "
+                       "on each vehicle > 0), since the start",
+    "dynamic_brake_energy": "work the dynamic brake took from the train at the rail, since "
+                            "the start (>= 0; the most it can regenerate)",
+    "air_brake_energy": "work of the air brakes (shoe friction), since the start",
+    "davis_energy": "work against the Davis running resistance, since the start",
+    "grade_energy": "work against gravity on grades since the start: the potential energy "
+                    "gained (< 0 downhill)",
+    "curve_energy": "work against curve resistance, since the start",
+    "coupler_energy": "net work the coupler took since the start: what its gears "
+                      "dissipated plus what they store at that moment",
+    "kinetic_energy": "kinetic energy of the train, sum of m v^2 / 2 with the dynamic "
+                      "masses (rotating parts included)",
+    "energy_balance_error": "traction_energy - dynamic_brake_energy - air_brake_energy - "
+                            "davis_energy - grade_energy - curve_energy - the couplers' "
+                            "energy - the change of kinetic_energy: what the integration "
+                            "leaves unaccounted",
 }
 
 ProgressFn = Callable[[float, float], None]
@@ -122,6 +141,7 @@ RECORD_ARRAYS = {
     "bp": ("brake_pipe_pressure",), "ar": ("auxiliary_reservoir_pressure",),
     "bc": ("brake_cylinder_pressure",), "ax": ("air_exhausted",),
     "m": DRIVE_SIGNALS,
+    "e": ENERGY_VARIABLES,
 }
 
 
@@ -129,9 +149,9 @@ def recorded(scenario: Scenario) -> frozenset[str]:
     """The kernel's record arrays (:data:`RECORD_ARRAYS` keys) a run of ``scenario``
     fills: all of them unless ``solver.record`` names a selection."""
     names = scenario.solver.record
-    if names is None:
-        return frozenset(RECORD_ARRAYS)
-    return frozenset(k for k, vs in RECORD_ARRAYS.items() if set(vs) & set(names))
+    keys = (frozenset(RECORD_ARRAYS) if names is None else
+            frozenset(k for k, vs in RECORD_ARRAYS.items() if set(vs) & set(names)))
+    return keys if scenario.solver.energy else keys - {"e"}
 
 #: share of the memory available when a run starts (``MemAvailable`` in /proc/meminfo)
 #: that one run's recording may take; a longer recording is refused before anything is
@@ -162,8 +182,11 @@ def recording_bytes(scenario: Scenario) -> int:
                   + nb * (("b" in keep) + ("p" in keep))
                   + (nk if nk > 1 and "c" in keep else 0)
                   + n * (("x" in keep) + ("v" in keep)) + 2
-                  + (2 * nd * N_DRIVE_SIGNALS if "m" in keep else 0))
+                  + (2 * nd * N_DRIVE_SIGNALS if "m" in keep else 0)
+                  + (2 * (N_ENERGY + nc + 1) if "e" in keep else 0))
     ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
+    if sv.energy:
+        ny += N_ENERGY + nc
     cells = 0
     if scenario.brake.model == "fluid":
         # pipe, auxiliary reservoir and cylinder pressure per vehicle, exhausted air;
@@ -303,6 +326,7 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
         "bc": np.zeros((n_rec, cols("bc", nf))),
         "ax": np.zeros((n_rec, cols("ax", 1 if nf else 0))),
         "m": np.zeros((n_rec, cols("m", low.drive_z.size), N_DRIVE_SIGNALS)),
+        "e": np.zeros((n_rec, cols("e", N_ENERGY + nc + 1) if low.energy_state >= 0 else 0)),
         "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
         "events": np.zeros((MAX_EVENTS, N_EVENT_COLUMNS)),
     }
@@ -500,6 +524,16 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
                 if kd >= 0:
                     arr[:, c] = rec["m"][:, kd, q]
             data[name] = (("time", "locomotive"), arr)
+    if rec["e"].shape[1]:
+        e = rec["e"]
+        for q, name in enumerate(ENERGY_TERMS):
+            data[name] = ("time", e[:, q])
+        data["coupler_energy"] = (cdims, e[:, N_ENERGY:N_ENERGY + nc])
+        data["kinetic_energy"] = ("time", e[:, -1])
+        # every term but motoring is work taken from the train
+        taken = (e[:, [q for q in range(N_ENERGY) if q != E_MOTOR]].sum(axis=1)
+                 + e[:, N_ENERGY:N_ENERGY + nc].sum(axis=1))
+        data["energy_balance_error"] = ("time", e[:, E_MOTOR] - taken - (e[:, -1] - e[0, -1]))
     ds = xr.Dataset(data, coords=coords)
     for name, unit in UNITS.items():
         if name in ds:

@@ -5,7 +5,8 @@
   between bins to better than 1 %).
 * :func:`band_stats`: largest amplitude and band RMS (Parseval) up to 10 Hz.
 * :func:`spectral_peaks`: the main peaks, each matched to the nearest natural frequency
-  of the train and labelled as a low- or high-stiffness mode (Table 6).
+  of the train on the coupling branch (draft or buff) engaged in that phase
+  (:func:`engaged_branches`; Table 6), never below the spectrum's resolution.
 * :func:`welch_psd`, :func:`spectrogram`: Welch PSD and a time-frequency map (scipy).
 """
 
@@ -15,18 +16,24 @@ import numpy as np
 from scipy import fft, signal
 
 
-def amplitude_spectrum(x, dt: float, detrend: bool = True, window: str = "boxcar"):
+def amplitude_spectrum(x, dt: float, detrend="constant", window: str = "boxcar"):
     """Single-sided amplitude spectrum of samples ``x`` taken every ``dt`` seconds.
 
     Returns ``(f, a)``: frequencies (Hz, resolution ``1 / (len(x) dt)``) and the
     amplitude of the sinusoid at each frequency, in the unit of ``x`` (a sine of
-    amplitude A on a bin reads A). With ``detrend`` the mean is removed first (the DC
-    term is the steady force, not an oscillation). ``window`` is any scipy window name;
-    amplitudes are corrected for its coherent gain.
+    amplitude A on a bin reads A). ``detrend`` removes the mean first (``"constant"`` or
+    True: the DC term is the steady force, not an oscillation), or the straight line
+    through the samples (``"linear"``: a force that drifts over the window would
+    otherwise leak into the lowest lines), or nothing (False). ``window`` is any scipy
+    window name; amplitudes are corrected for its coherent gain.
     """
     x = np.asarray(x, dtype=float)
-    if detrend:
+    if detrend is True or detrend == "constant":
         x = x - x.mean()
+    elif detrend == "linear":
+        x = signal.detrend(x, type="linear")
+    elif detrend is not False:
+        raise ValueError(f"detrend must be 'constant', 'linear' or False, got {detrend!r}")
     n = x.size
     w = signal.get_window(window, n, fftbins=True)
     a = np.abs(fft.rfft(x * w)) / w.sum()
@@ -54,29 +61,49 @@ def band_stats(f, a, f_max: float = 10.0, f_min: float = 0.0) -> dict:
             "spectrum_rms": float(np.sqrt(np.mean(a[band] ** 2)))}
 
 
-def spectral_peaks(f, a, modes_low=(), modes_high=(), f_max: float = 10.0,
-                   rel_height: float = 0.2, max_peaks: int = 5) -> list[dict]:
+def spectral_peaks(f, a, modes=None, f_max: float = 10.0, rel_height: float = 0.2,
+                   max_peaks: int = 5, f_min: float | None = None) -> list[dict]:
     """The main peaks of an amplitude spectrum below ``f_max`` (Hz): local maxima at
-    least ``rel_height`` of the largest, largest first. Each is matched to the nearest
-    natural frequency in ``modes_low`` / ``modes_high`` (Hz) and labelled "low" or
-    "high" stiffness mode by which is nearer."""
+    least ``rel_height`` of the largest, largest first. ``modes`` maps a branch name
+    ("draft", "buff") to the train's natural frequencies (Hz) on that branch; each peak
+    at or above ``f_min`` (Hz; default twice the spectrum's resolution ``f[1]``: a line
+    nearer to 0 Hz is the window's trend, not a mode) is matched to the nearest of them
+    and labelled with its branch and mode number (from 1, the lowest nonzero)."""
     band = f <= f_max
     idx, _ = signal.find_peaks(a[band], height=rel_height * a[band].max())
     idx = idx[np.argsort(-a[band][idx])][:max_peaks]
+    f_min = 2.0 * float(f[1]) if f_min is None else f_min
     out = []
     for i in idx:
         peak = {"frequency_hz": float(f[i]), "amplitude": float(a[i])}
         best = None
-        for label, modes in (("low", modes_low), ("high", modes_high)):
-            for j, fm in enumerate(modes):
-                if fm <= 0:
-                    continue
-                d = abs(fm - f[i])
-                if best is None or d < best[0]:
-                    best = (d, label, j, fm)
+        if f[i] >= f_min:
+            for label, freqs in (modes or {}).items():
+                nonzero = [fm for fm in freqs if fm > 1e-6]
+                for j, fm in enumerate(nonzero):
+                    d = abs(fm - f[i])
+                    if best is None or d < best[0]:
+                        best = (d, label, j, fm)
         if best is not None:
             peak.update(mode=best[1], mode_index=best[2], mode_frequency_hz=float(best[3]))
         out.append(peak)
+    return out
+
+
+def engaged_branches(deflection, slack: float, share: float = 0.2) -> list[str]:
+    """The coupling branches a coupler spends at least ``share`` (0-1) of a record in:
+    "draft" (deflection beyond half its ``slack`` in tension, m) and/or "buff" (in
+    compression), in that order; empty when it spends the record in its slack. A
+    spectral peak is a mode of the train linearised on the branch its couplers are on."""
+    d = np.asarray(deflection, dtype=float)
+    if d.size == 0:
+        return []
+    h = 0.5 * slack
+    out = []
+    if np.mean(d > h) >= share:
+        out.append("draft")
+    if np.mean(d < -h) >= share:
+        out.append("buff")
     return out
 
 
@@ -99,12 +126,16 @@ def spectrogram(x, dt: float, segment_s: float = 10.0, overlap: float = 0.75,
 
 
 def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
-                  lead: str = "held", series: int = 2):
+                  lead: str = "held", detrend="linear"):
     """Per phase and coupler (``couplers``: indices from 0; coupler 1 as people count,
     behind the lead, is index 0): largest amplitude (N) and its frequency (Hz), band RMS (N)
-    up to ``f_max``, and the main peaks matched to the train's modes (the study's Tables
-    6 and 7). Modes from :func:`ltdsim.modal.train_modes` at the low (k1) and high
-    (k2 + k3) stiffness; couplers that are not simplified are matched to none."""
+    up to ``f_max``, the spectrum's resolution (Hz), the coupling branches engaged
+    (:func:`engaged_branches`), and the main peaks matched to the train's modes on those
+    branches (the study's Tables 6 and 7), each force's trend removed first
+    (``detrend``, :func:`amplitude_spectrum`). Modes from
+    :func:`ltdsim.modal.train_modes` on the draft and buff branches, the couplings as the
+    kernel simulates them; couplers whose model has no linearised stiffness are matched
+    to none."""
     import json
 
     import pandas as pd
@@ -115,24 +146,31 @@ def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
 
     if scenario is None:
         scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
-    try:
-        low = train_modes(scenario, "low", series, lead).frequency_hz.values
-        high = train_modes(scenario, "high", series, lead).frequency_hz.values
-    except ValueError:
-        low, high = (), ()
+    modes = {}
+    for branch in ("draft", "buff"):
+        try:
+            modes[branch] = train_modes(scenario, branch, lead).frequency_hz.values
+        except ValueError:
+            pass
     dt = float(ds.time[1] - ds.time[0])
     rows = []
     for name, a, b in phases_of(ds, scenario):
-        w = ds.coupler_force.sel(time=slice(a, b - 0.5 * dt))
+        w = ds.sel(time=slice(a, b - 0.5 * dt))
         for c in couplers:
-            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt)
+            f, amp = amplitude_spectrum(w.coupler_force.isel(coupler=c).values, dt,
+                                        detrend=detrend)
             s = band_stats(f, amp, f_max)
-            peaks = spectral_peaks(f, amp, low, high, f_max)
+            engaged = engaged_branches(w.coupler_deflection.isel(coupler=c).values,
+                                       scenario.coupler(c).slack)
+            peaks = spectral_peaks(f, amp, {k: modes[k] for k in engaged if k in modes},
+                                   f_max)
             rows.append({"phase": name, "coupler": c, "max_N": s["max"],
                          "f_at_max_hz": s["f_at_max_hz"], "band_rms_N": s["rms"],
                          "spectrum_rms_N": s["spectrum_rms"],
+                         "resolution_hz": float(f[1]) if f.size > 1 else float("nan"),
+                         "branches": " + ".join(engaged) or "slack",
                          "peaks": "; ".join(f"{p['frequency_hz']:.1f} Hz"
-                                            + (f" ({p['mode']} mode "
+                                            + (f" ({p['mode']} mode {p['mode_index'] + 1}, "
                                                f"{p['mode_frequency_hz']:.2f} Hz)"
                                                if "mode" in p else "") for p in peaks)})
     return pd.DataFrame(rows)
@@ -142,7 +180,7 @@ def band_share(ds, scenario=None, couplers=(0, 7, 8), f_split: float = 4.0,
                f_max: float = 10.0) -> dict:
     """Share (0-1) of each coupler's force fluctuation between 0 and ``f_max`` Hz that
     lies below ``f_split`` Hz, per phase: ``{phase: {coupler index: share}}`` (Parseval:
-    sums of squared amplitudes of the mean-free spectrum). The study finds the coupler
+    sums of squared amplitudes of the spectrum with its linear trend removed). The study finds the coupler
     forces' content within 0-4 Hz (§5.2)."""
     import json
 
@@ -157,18 +195,18 @@ def band_share(ds, scenario=None, couplers=(0, 7, 8), f_split: float = 4.0,
         w = ds.coupler_force.sel(time=slice(a, b - 0.5 * dt))
         out[name] = {}
         for c in couplers:
-            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt)
+            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt, detrend="linear")
             total = np.sum(amp[f <= f_max] ** 2)
             out[name][str(c)] = float(np.sum(amp[f < f_split] ** 2) / total) if total > 0 else 1.0
     return out
 
 
 def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
-                    lead: str = "held", series: int = 2, span_db: float = 50.0):
+                    lead: str = "held", span_db: float = 50.0):
     """Two figures of the coupler forces ``couplers`` (indices from 0, labelled from 1):
 
     * ``spectra_per_phase.png``: amplitude spectra per phase up to ``f_max`` Hz, with the
-      train's low- (k1) and high- (k2 + k3) stiffness modal bands shaded;
+      train's modal bands on the buff (k1) and draft (k2 + k3) branches shaded;
     * ``spectrogram.png``: a time-frequency map of each over the whole run, linearly
       detrended per 10 s window (the steady force is not an oscillation), in dB
       relative to 1 kN over the top ``span_db`` dB, up to the frequency below which 99.5 %
@@ -189,9 +227,9 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
     dt = float(ds.time[1] - ds.time[0])
     phases = phases_of(ds, scenario)
     bands = {}
-    for which, colour in (("low", "tab:cyan"), ("high", "tab:olive")):
+    for which, colour in (("buff", "tab:cyan"), ("draft", "tab:olive")):
         try:
-            f = train_modes(scenario, which, series, lead).frequency_hz.values
+            f = train_modes(scenario, which, lead).frequency_hz.values
             bands[which] = (f[f > 0].min(), f.max(), colour)
         except ValueError:  # couplers without k1/k2/k3
             pass
@@ -205,9 +243,9 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
         w = ds.coupler_force.sel(time=slice(a, b - 0.5 * dt))
         for which, (lo, hi, colour) in bands.items():
             ax.axvspan(lo, hi, color=colour, alpha=0.15, lw=0,
-                       label=f"{which}-stiffness modes {lo:.2f}-{hi:.2f} Hz")
+                       label=f"{which}-branch modes {lo:.2f}-{hi:.2f} Hz")
         for j, c in enumerate(couplers):
-            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt)
+            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt, detrend="linear")
             band = f <= f_max
             ax.plot(f[band], amp[band] / 1e3, lw=1.0, color=HIGHLIGHT_COLOURS[j % 5],
                     label=f"coupler {c + 1}")
@@ -218,7 +256,7 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
     for ax in axes.flat[len(phases):]:
         ax.set_visible(False)
     axes.flat[0].legend(loc="upper right")
-    fig.suptitle("Coupler force spectra per phase (mean removed), with the train's modal "
+    fig.suptitle("Coupler force spectra per phase (linear trend removed), with the train's modal "
                  "bands (lead held)")
     files.append(_save(fig, folder / "spectra_per_phase.png"))
 

@@ -35,8 +35,9 @@ lag of ``tau = 1 / rate``.
 The coupling at its stiffest (N/m): linear ``stiffness``; simplified ``max(k1, k2 + k3)``;
 friction_wedge and table ``k_locked`` plus the steepest slope of their loading and
 unloading curves (a locked gear crosses the band at ``k_locked`` relative to it); and, where
-the gear has a ``travel``, ``solid_stiffness`` on top (the closed gear). This bounds the
-frequency from above: a real run meets the stiffest state only now and then.
+the gear has a ``travel``, ``solid_stiffness`` on top (the closed gear); a coupling of
+two gears in series (``gears = 2``) has half one gear's. This bounds the frequency from
+above: a real run meets the stiffest state only now and then.
 """
 
 from __future__ import annotations
@@ -115,12 +116,12 @@ def mode_step_limit(method: str, omega: float, zeta: float) -> float:
 
 # ----------------------------------------------------------------- the train's modes
 def stiffest(c) -> float:
-    """Tangent stiffness of coupler parameters ``c`` (a validated coupler of any model)
-    at its stiffest, N/m (see the module text; each model's entry in
+    """Tangent stiffness of coupling ``c`` (a validated coupler of any model) at its
+    stiffest, N/m, its gears in series (see the module text; each model's entry in
     :mod:`ltdsim.coupler_models` knows its own)."""
-    from ltdsim.coupler_models import REGISTRY
+    from ltdsim.coupler_models import stiffest as coupling_stiffest
 
-    return REGISTRY[c.model].stiffest(c)
+    return coupling_stiffest(c)
 
 
 def highest_mode(masses, stiffness, damping) -> tuple[float, float]:

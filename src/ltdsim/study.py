@@ -332,39 +332,43 @@ def _modal_key(scenario: Scenario) -> str:
 
 
 def _stage_modal(out, cache, scenario: Scenario):
-    """Modes of the base case at the low (k1) and high (k2 + k3) stiffness, free and with
-    the locomotive held, and the bands of the softest and stiffest couplings among the
+    """Modes of the base case linearised on the couplings' buff branch (a simplified
+    coupler's k1, the study's "low") and draft branch (k2 + k3, its "high"), free and
+    with the locomotive held, each coupling as the kernel simulates it (its gears in
+    series); and the bands of the softest buff and stiffest draft couplings among the
     scenario's cases (the widest the study's parameter space allows)."""
+    from ltdsim.coupler_models import linearised_stiffness
     from ltdsim.modal import coupling_stiffness, save_mode_shapes, train_modes
 
-    series = 2  # a draft gear at each wagon end: two gears in series per coupling
     key = _modal_key(scenario)
-    files = [out / "fig8_modes_low.png", out / "fig8_modes_high.png"]
+    files = [out / "fig8_modes_buff.png", out / "fig8_modes_draft.png"]
     hit = cache.get("modal", key)
     if hit is not None:
         return hit
-    value = {"series": series}
-    for which, fig in zip(("low", "high"), files):
+    gears = scenario.coupler(0).gears
+    value = {"gears": gears}
+    label = {"buff": "k1", "draft": "k2 + k3"}
+    for branch, fig in zip(("buff", "draft"), files):
         try:
-            free = train_modes(scenario, which, series, "free")
-            held = train_modes(scenario, which, series, "held")
-            k = coupling_stiffness(scenario, which, series)
+            free = train_modes(scenario, branch, "free")
+            held = train_modes(scenario, branch, "held")
+            k = coupling_stiffness(scenario, branch)
         except ValueError as exc:  # couplers without k1/k2/k3
-            value[which] = {"error": str(exc)}
+            value[branch] = {"error": str(exc)}
             continue
-        label = {"low": "k1", "high": "k2 + k3"}[which]
-        save_mode_shapes(free, fig, title=f"Fig. 8, {which} stiffness: {label} = "
-                                          f"{k[0] * series / 1e6:.2f} MN/m per gear, "
-                                          f"{series} gears per coupling; case "
+        save_mode_shapes(free, fig, title=f"Fig. 8, {branch} branch: coupling stiffness "
+                                          f"{label[branch]} = {k[0] / 1e6:.2f} MN/m "
+                                          f"({gears} gear(s) per coupling); case "
                                           f"{scenario.case or scenario.name}, free train")
-        value[which] = {"free": free.frequency_hz.tolist(), "held": held.frequency_hz.tolist(),
-                        "coupling_stiffness_N_m": float(k[0])}
-    gears = [scenario.with_case(c).coupler(0) for c in scenario.cases] or [scenario.coupler(0)]
-    if all(g.model == "simplified" for g in gears):
-        for which, k in (("low", min(g.k1 for g in gears)),
-                         ("high", max(g.k2 + g.k3 for g in gears))):
-            f = train_modes(scenario, k, series, "free").frequency_hz.values
-            value[f"widest_{which}"] = {"gear_stiffness_N_m": k, "band_hz": [f[1], f[-1]]}
+        value[branch] = {"free": free.frequency_hz.tolist(), "held": held.frequency_hz.tolist(),
+                         "coupling_stiffness_N_m": float(k[0])}
+    couplings = ([scenario.with_case(c).coupler(0) for c in scenario.cases]
+                 or [scenario.coupler(0)])
+    if all(g.model == "simplified" for g in couplings):
+        for branch, pick in (("buff", min), ("draft", max)):
+            k = pick(linearised_stiffness(g, branch) for g in couplings)
+            f = train_modes(scenario, k, "free").frequency_hz.values
+            value[f"widest_{branch}"] = {"coupling_stiffness_N_m": k, "band_hz": [f[1], f[-1]]}
     return cache.put("modal", key, value, [f for f in files if f.is_file()])
 
 

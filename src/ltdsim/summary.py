@@ -167,7 +167,11 @@ def speeds(ds: xr.Dataset) -> dict[str, float]:
 
 def gear_travel_check(ds: xr.Dataset, scenario=None,
                       reference_travel: float = REFERENCE_TRAVEL) -> pd.DataFrame:
-    """How far each gear deflected beyond its slack, against its travel.
+    """How far each gear deflected beyond its coupling's slack, against its travel.
+
+    A coupling of ``gears`` gears in series shares its deflection beyond the slack
+    equally among them (:func:`ltdsim.coupler_models.coupler_force`), so each gear
+    deflects by that over ``gears``.
 
     Parameters
     ----------
@@ -184,10 +188,11 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
     -------
     pandas.DataFrame
         Indexed by coupler (0 = between vehicles 0 and 1, as ``ds.coupler``):
-        ``slack_m`` (total free play), ``travel_m`` (the travel checked against),
+        ``slack_m`` (total free play), ``gears`` (in series in the coupling),
+        ``travel_m`` (one gear's travel, checked against),
         ``travel_stated`` (True if the coupler has its own ``travel``, False if the
-        reference is used), ``max_draft_m`` and ``max_buff_m`` (largest gear deflection
-        beyond the slack in draft and in buff, >= 0), ``max_deflection_m`` (the larger),
+        reference is used), ``max_draft_m`` and ``max_buff_m`` (largest deflection of one
+        gear in draft and in buff, >= 0), ``max_deflection_m`` (the larger),
         ``excess_m`` (beyond the travel, >= 0) and ``exceeds`` (bool).
     """
     if scenario is None:
@@ -198,17 +203,19 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
     nc = d.shape[1]
     params = [scenario.coupler(j) for j in range(nc)]
     half = 0.5 * np.array([c.slack for c in params])
+    gears = np.array([c.gears for c in params], dtype=float)
     stated = np.array([c.travel is not None for c in params], dtype=bool)
     travel = np.array([c.travel if c.travel is not None else reference_travel for c in params])
     if d.shape[0]:
-        draft = np.clip(column_max(d) - half, 0.0, None)
-        buff = np.clip(-column_min(d) - half, 0.0, None)
+        draft = np.clip(column_max(d) - half, 0.0, None) / gears
+        buff = np.clip(-column_min(d) - half, 0.0, None) / gears
     else:
         draft = buff = np.zeros(nc)
     largest = np.maximum(draft, buff)
     excess = np.clip(largest - travel, 0.0, None)
     return pd.DataFrame({
-        "coupler": ds.coupler.values, "slack_m": 2.0 * half, "travel_m": travel,
+        "coupler": ds.coupler.values, "slack_m": 2.0 * half, "gears": gears.astype(int),
+        "travel_m": travel,
         "travel_stated": stated, "max_draft_m": draft, "max_buff_m": buff,
         "max_deflection_m": largest, "excess_m": excess, "exceeds": excess > 0.0,
     }).set_index("coupler")

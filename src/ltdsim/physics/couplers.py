@@ -97,15 +97,18 @@ def coupler_linear(d, dd, slack, stiffness, damping, travel, solid_stiffness):
 
 
 @njit(cache=True, inline="always")
-def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc, travel,
+def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc, by_rate, travel,
                      solid_stiffness):
-    """:func:`coupler_simplified` with the critical velocity given as its inverse
-    ``inv_vc = 1 / v_c`` (s/m), as the kernel stores it (a multiplication in the inner
-    loop instead of a division), N."""
+    """:func:`coupler_simplified` with the fade constant given as its inverse
+    ``inv_vc = 1 / v_c`` (1/m, or s/m with ``by_rate``), as the kernel stores it (a
+    multiplication in the inner loop instead of a division), N."""
     h = 0.5 * slack
     if d > h:
         e = d - h
-        f = (preload + (k3 + k2 * exp_neg(abs(dd) * inv_vc)) * e + damping * dd
+        # the nonlinear stiffness fades with the gear deflection (the printed Eq. 9) or,
+        # with ``by_rate``, with the deflection rate (an earlier reading; not passive)
+        arg = abs(dd) if by_rate else e
+        f = (preload + (k3 + k2 * exp_neg(arg * inv_vc)) * e + damping * dd
              + solid_closure(e, travel, solid_stiffness))
     elif d < -h:
         e = d + h
@@ -119,20 +122,20 @@ def simplified_force(d, dd, slack, preload, damping, k1, k2, k3, inv_vc, travel,
 
 @vectorize_when_used(
     ["float64(float64, float64, float64, float64, float64, float64, float64, float64, float64, "
-     "float64, float64)"],
+     "boolean, float64, float64)"],
     cache=True,
 )
-def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c, travel,
+def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c, by_rate, travel,
                        solid_stiffness):
     """The study's simplified nonlinear coupler (paper Eq. 9), N.
 
-    Draft (``e > 0``): ``T = P + (k3 + k2 exp(-|de/dt| / v_c)) e + b de/dt``.
-    Buff (``e < 0``): ``T = -P + k1 e + b de/dt``. Zero inside the dead band. Beyond
-    ``travel`` the gear is solid (:func:`solid_closure`).
-
-    The nonlinear stiffness ``k2`` fades as the gear slides faster, like the
-    static-to-kinetic friction law; ``|de/dt|`` keeps it from feeding energy in. Why Eq. 9
-    is read this way: docs/model.md#simplified-coupler.
+    Draft (``e > 0``): ``T = P + (k3 + k2 exp(-e / v_c)) e + b de/dt``, the equation as
+    printed, with the nonlinear stiffness ``k2`` fading as the gear deflects (``v_c`` a
+    length, m). With ``by_rate`` the fade follows the deflection rate instead,
+    ``exp(-|de/dt| / v_c)`` (``v_c`` a speed, m/s): that reading can return more energy
+    than it takes when a gear loads fast and unloads slowly (docs/model.md). Buff
+    (``e < 0``): ``T = -P + k1 e + b de/dt``. Zero inside the dead band. Beyond ``travel``
+    the gear is solid (:func:`solid_closure`).
 
     Parameters
     ----------
@@ -153,14 +156,17 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c, travel,
     k3 : float
         Linear (draft) stiffness, N/m.
     v_c : float
-        Critical velocity, m/s.
+        Fade constant of ``k2``: a deflection, m (``by_rate`` False), or a critical
+        velocity, m/s (``by_rate`` True).
+    by_rate : bool
+        The fade follows the deflection rate (True) or the deflection (False).
     travel : float
         Gear deflection beyond the slack at which the gear goes solid, m (``inf``: none).
     solid_stiffness : float
         Stiffness of the solid gear beyond ``travel``, N/m.
     """
-    return simplified_force(d, dd, slack, preload, damping, k1, k2, k3, 1.0 / v_c, travel,
-                            solid_stiffness)
+    return simplified_force(d, dd, slack, preload, damping, k1, k2, k3, 1.0 / v_c, by_rate,
+                            travel, solid_stiffness)
 
 
 @njit(cache=True, inline="always")
