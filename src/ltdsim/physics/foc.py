@@ -396,7 +396,7 @@ def drive_steady(m: np.ndarray, c: np.ndarray, wm: float, t_ref: float, v_dc: fl
     scale[S_ID] = scale[S_IQ] = c[C_KI] * imax
     worst = float(np.max(np.abs(dy) / scale))
     if not worst <= 1e-9:
-        raise ValueError(f"drive_steady: no steady state at shaft speed {wm:.6g} rad/s and "
-                         f"torque demand {t_ref:.6g} N m (largest relative rate {worst:.3g} "
-                         f"after {max_iter} iterations)")
+        raise ValueError(f"drive_steady: no steady state at shaft speed {wm:.6g} rad/s "
+                         f"and torque demand {t_ref:.6g} N m (largest relative rate "
+                         f"{worst:.3g} after at most {max_iter} iterations)")
     return y
