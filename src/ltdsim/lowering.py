@@ -428,7 +428,13 @@ def _drive_rows(s: Scenario, loco, k: int, z: int) -> dict:
     n_motors = t.motor.per_locomotive * len(loco.vehicles)
     v0 = (s.initial.speed if s.initial.velocities is None
           else s.initial.velocities[loco.vehicles[0]])
-    y0 = [*foc.drive_init(m, c), v0 / ws.wheel_radius, t_max]
+    # the drive starts in its steady state at the initial speed and demand (the wheels
+    # rolling: no creep), not magnetised at standstill (docs/induction-drive-train.md)
+    om0 = v0 / ws.wheel_radius
+    t_ref = _initial_torque_demand(_initial_demand(s, k, v0), v0, om0, t_max, n_motors,
+                                   wrow, slip, t)
+    y_drive = foc.drive_steady(m, c, ws.gear_ratio * om0, t_ref, motor.dc_link_voltage)
+    y0 = [*y_drive, om0, t_max]
     # peak line current -> rms winding current
     to_rms = 1.0 / np.sqrt(2.0) / (np.sqrt(3.0) if motor.connection == "delta" else 1.0)
     misc = np.array([float(n_motors), ws.gear_efficiency, motor.dc_link_voltage,
@@ -436,6 +442,72 @@ def _drive_rows(s: Scenario, loco, k: int, z: int) -> dict:
                      float(t.motor.per_locomotive), t.dynamic_brake_fade])
     return {"cons": k, "z": z, "motor": m, "ctrl": c, "ws": wrow, "rail": rail,
             "slip": slip, "misc": misc, "y0": y0}
+
+
+def _initial_demand(s: Scenario, k: int, v0: float) -> float:
+    """Consist ``k``'s traction demand at t = 0 (N, + traction) at its lead vehicle's
+    speed ``v0`` (m/s), by the law of ``kernel._traction``: in force mode the force
+    profile at 0 (linear, constant before its first point) times the consist's share
+    ``max_force / sum of the followers' max_force``; in notch mode, or on the
+    consist's own notch schedule, the notch held at 0 over 8 times its traction curve
+    at ``v0``. In speed mode 0: the speed controller's first output is not evaluated
+    here (the drive follows it from the steady state of no torque, as it follows any
+    later step of the demand)."""
+    from ltdsim.physics.traction import traction_max
+
+    t = s.traction
+    d = s.driver
+    consists = s.consists()
+    loco = consists[k]
+
+    def pick(lc, key):
+        own = getattr(lc, key)
+        return getattr(t, key) if own is None else own
+
+    def held(points):  # the step function at 0: the last point at or before it
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        j = max(int(np.searchsorted(pts[:, 0], 0.0, side="right")) - 1, 0)
+        return float(pts[j, 1])
+
+    lim = float(traction_max(v0, pick(loco, "max_force"), pick(loco, "max_power"),
+                             pick(loco, "adhesion_mass"), s.track.gravity))
+    if loco.notch_profile is not None:
+        return held(loco.notch_profile) / 8.0 * lim
+    if d.mode == "notch":
+        return held(d.notch_profile) / 8.0 * lim
+    if d.mode == "force":
+        pts = np.asarray(d.force_profile, dtype=float).reshape(-1, 2)
+        f0 = float(np.interp(0.0, pts[:, 0], pts[:, 1]))
+        fmax = [pick(lc, "max_force") for lc in consists if lc.notch_profile is None]
+        return f0 * pick(loco, "max_force") / float(np.sum(fmax))
+    return 0.0
+
+
+def _initial_torque_demand(dem: float, v0: float, om0: float, limit: float,
+                           n_motors: int, wrow: np.ndarray, slip: np.ndarray,
+                           t) -> float:
+    """The motor's torque demand (N m at the shaft) from a consist demand ``dem`` (N)
+    at vehicle speed ``v0`` (m/s), wheelset speed ``om0`` (rad/s) and the slip
+    controller's limit ``limit`` (N m at the wheel), by the law of ``kernel._drive_axle``
+    (docs/induction-drive-train.md, steps 2-4): a braking demand faded below
+    ``dynamic_brake_fade``; the wheel torque ``dem r / motors``; the slip controller
+    (:func:`ltdsim.physics.creep.slip_control`, mirrored in braking); over ``G eta``
+    (motoring) or times ``eta / G`` (braking)."""
+    from ltdsim.physics import creep as _creep
+
+    fade = t.dynamic_brake_fade
+    if dem < 0.0 and fade > 0.0:
+        dem *= min(max(v0 / fade, 0.0), 1.0)
+    r = wrow[_creep.W_R]
+    tw = dem * r / n_motors
+    if t.creep.slip_control.enabled:
+        if tw >= 0.0:
+            tw, _ = _creep.slip_control(limit, tw, om0, v0, r, slip)
+        else:
+            tw, _ = _creep.slip_control(limit, -tw, -om0, -v0, r, slip)
+            tw = -tw
+    g, eta = wrow[_creep.W_I], t.creep.wheelset.gear_efficiency
+    return tw / (g * eta) if tw >= 0.0 else tw * eta / g
 
 
 def _drive_fields(rows: list[dict], n_cons: int) -> dict:
