@@ -20,6 +20,9 @@ Runs, in one process:
     (paper.toml, case LHHL), both whole ``simulate()`` runs warmed first, in interleaved
     rounds (the order alternating), CPU time of this process, each round's ratio, medians
     (the issue's target: at most 2x);
+  * the study case LHHL with ``solver.energy = true`` against the same without, both
+    warmed first, in interleaved rounds, CPU time, each round's ratio, medians (the
+    issue's target: at most 1.05);
   * with ``--baseline REV`` (default: the commit before the engine's redesign), the
     study case LHHL by this version and by ``REV`` (a fresh clone), each in child
     processes, rounds interleaved, CPU time of the child's runs, medians;
@@ -115,25 +118,38 @@ def _against_reference(sc, rounds: int) -> dict:
             "max_abs_force_N": float(np.max(np.abs(ref_force))), "times": times}
 
 
-def _drive_against_curve(curve, drive, rounds: int) -> dict:
-    """CPU and wall seconds of ``simulate(drive)`` and ``simulate(curve)``: a warm-up of
+def _paired(first, second, rounds: int, what: str) -> dict:
+    """CPU and wall seconds of ``simulate(first)`` and ``simulate(second)``: a warm-up of
     both, then ``rounds`` interleaved rounds (the order alternating); each round's ratio
-    drive / curve of CPU time."""
-    ltdsim.simulate(curve)
-    ltdsim.simulate(drive)
-    runs = {"curve": curve, "drive": drive}
+    second / first of CPU time (``times["round ratios"]``)."""
+    ltdsim.simulate(first)
+    ltdsim.simulate(second)
+    runs = {"first": first, "second": second}
     times = {k: {"cpu": [], "wall": []} for k in runs}
     for r in range(rounds):
-        for name in (("curve", "drive") if r % 2 == 0 else ("drive", "curve")):
+        for name in (("first", "second") if r % 2 == 0 else ("second", "first")):
             c0, w0 = _clocks()
             ltdsim.simulate(runs[name])
             c1, w1 = _clocks()
             times[name]["cpu"].append(c1 - c0)
             times[name]["wall"].append(w1 - w0)
-        print(f"drive round {r + 1}/{rounds} done", file=sys.stderr, flush=True)
-    times["round ratios"] = [a / b for a, b in zip(times["drive"]["cpu"],
-                                                   times["curve"]["cpu"])]
+        print(f"{what} round {r + 1}/{rounds} done", file=sys.stderr, flush=True)
+    times["round ratios"] = [a / b for a, b in zip(times["second"]["cpu"],
+                                                   times["first"]["cpu"])]
     return times
+
+
+def _paired_rows(times: dict, first: str, second: str, target: str) -> list:
+    """Table rows of :func:`_paired`'s ``times``: each run's median CPU (wall) seconds
+    and the ratio second / first, median of the rounds' ratios and of the medians."""
+    c1, c2 = (statistics.median(times[k]["cpu"]) for k in ("first", "second"))
+    w1, w2 = (statistics.median(times[k]["wall"]) for k in ("first", "second"))
+    n = len(times["round ratios"])
+    return [(f"{first}, CPU s (wall s)", f"{c1:.3f} ({w1:.3f})"),
+            (f"{second}, CPU s (wall s)", f"{c2:.3f} ({w2:.3f})"),
+            (f"ratio, CPU, median of the {n} rounds' ratios ({target})",
+             f"{statistics.median(times['round ratios']):.3f}"),
+            ("ratio, CPU, of the medians", f"{c2 / c1:.3f}")]
 
 
 _CHILD = r"""
@@ -215,6 +231,9 @@ def main(argv=None) -> dict:
                     help="interleaved rounds of simulate() against the reference kernel")
     ap.add_argument("--drive-rounds", type=int, default=7,
                     help="interleaved rounds of the induction-drive case against the curve's")
+    ap.add_argument("--energy-rounds", type=int, default=7,
+                    help="interleaved rounds of the study case with the energy accounted "
+                         "against without")
     ap.add_argument("--baseline", default=BASELINE,
                     help="git revision whose study-case time is the baseline ('' to skip)")
     ap.add_argument("--baseline-rounds", type=int, default=5)
@@ -303,18 +322,15 @@ def main(argv=None) -> dict:
          f"{sp_per_rhs / lt_per_rhs:.0f}x"),
         ("ratio study (Simulink, 854.7 s per case) / ltdsim", f"{STUDY_SECONDS_PER_CASE / wall:.0f}x"),
     ]
-    drv = _drive_against_curve(sc, ltdsim.load_scenario(PAPER_DRIVE), args.drive_rounds)
-    dc = statistics.median(drv["curve"]["cpu"])
-    dd = statistics.median(drv["drive"]["cpu"])
-    rows += [
-        ("study case LHHL (270 s, ode3 at 1e-4 s), traction curve, whole simulate(), CPU s "
-         "(wall s)", f"{dc:.3f} ({statistics.median(drv['curve']['wall']):.3f})"),
-        ("the same with the induction drive (paper-induction.toml), CPU s (wall s)",
-         f"{dd:.3f} ({statistics.median(drv['drive']['wall']):.3f})"),
-        (f"ratio drive / curve, CPU, median of the {args.drive_rounds} rounds' ratios "
-         "(target <= 2.0)", f"{statistics.median(drv['round ratios']):.3f}"),
-        ("ratio drive / curve, CPU, of the medians", f"{dd / dc:.3f}"),
-    ]
+    drv = _paired(sc, ltdsim.load_scenario(PAPER_DRIVE), args.drive_rounds, "drive")
+    rows += _paired_rows(drv, "study case LHHL (270 s, ode3 at 1e-4 s), traction curve, "
+                         "whole simulate()", "the same with the induction drive "
+                         "(paper-induction.toml)", "drive / curve, target <= 2.0")
+    energy = _paired(sc, sc.with_overrides({"solver.energy": True}), args.energy_rounds,
+                     "energy")
+    rows += _paired_rows(energy, "study case LHHL, whole simulate()",
+                         "the same with the energy accounted (solver.energy = true)",
+                         "energy / plain, target <= 1.05")
     base = None
     if args.baseline:
         base = _against_baseline(args.baseline, args.baseline_rounds, 2)
@@ -349,8 +365,9 @@ def main(argv=None) -> dict:
                        "ratio_cpu_per_round": per_round,
                        "ratio_cpu_all_variables": statistics.median(per_round_all),
                        "ratio_cpu_all_variables_per_round": per_round_all},
-        "drive_case": {"cpu_s": drv, "ratio_cpu": statistics.median(drv["round ratios"]),
-                       "ratio_cpu_of_medians": dd / dc},
+        "drive_case": {"cpu_s": drv, "ratio_cpu": statistics.median(drv["round ratios"])},
+        "energy_case": {"cpu_s": energy,
+                        "ratio_cpu": statistics.median(energy["round ratios"])},
         "baseline": None if base is None else {"revision": args.baseline, "cpu_s": base},
     }
     how = (f"; simulate() against the reference kernel: {args.rounds} interleaved rounds "
@@ -358,7 +375,8 @@ def main(argv=None) -> dict:
            "round's ratio, medians")
     how += (f"; induction-drive study case against the curve's: {args.drive_rounds} "
             "interleaved rounds after a warm-up of both, CPU time of this process, each "
-            "round's ratio, medians")
+            "round's ratio, medians; the study case with the energy accounted against "
+            f"without: {args.energy_rounds} rounds the same way")
     if base is not None:
         how += (f"; study case against {args.baseline}: {args.baseline_rounds} rounds of one "
                 "child process per version, 2 runs each, CPU time, each round's ratio, medians")

@@ -16,7 +16,12 @@ Made for refactors that must not change a single bit (a reordering of floating-p
 operations shows up here as differences of a few ulp). The run facts ``wall_time_s``
 and ``compile_time_s`` are not compared.
 
+``--fade-rate`` runs every scenario whose couplers are the simplified coupler with
+``fade = "rate"``, the reading that was the only one before the key came: with it a
+comparison against code from before then checks that nothing else changed.
+
 Usage: python benchmarks/check_bit_identical.py save|compare FILE.npz [--quick]
+       [--fade-rate]
 """
 
 from __future__ import annotations
@@ -35,13 +40,28 @@ SCEN = ROOT / "scenarios"
 SECONDS = 10.0
 
 
-def runs(quick: bool = False):
+def _rate_fade(sc):
+    """``sc`` with its default simplified couplers (and any simplified overrides) read
+    with the rate fade; other scenarios unchanged."""
+    if sc.couplers is None:
+        return sc
+    keys = {}
+    if sc.couplers.default.model == "simplified":
+        keys["couplers.default.fade"] = "rate"
+    if not keys:
+        return sc
+    return sc.with_overrides(keys)
+
+
+def runs(quick: bool = False, fade_rate: bool = False):
     """``(label, scenario)`` for every run of the check."""
     out = []
     for path in sorted(SCEN.glob("*.toml")):
         if "sweep" in path.name:  # a sweep file, not a scenario
             continue
         base = ltdsim.load_scenario(path)
+        if fade_rate:
+            base = _rate_fade(base)
         names = [None] + sorted(base.cases)
         for case in names:
             sc = base if case is None else base.with_case(case)
@@ -49,6 +69,8 @@ def runs(quick: bool = False):
             out.append((f"{path.stem}[{case or 'base'}] {t_end:g} s",
                         sc.with_overrides({"solver.t_end": t_end})))
     paper = ltdsim.load_scenario(SCEN / "paper.toml", case="LHHL")
+    if fade_rate:
+        paper = _rate_fade(paper)
     if not quick:
         out.append(("paper[LHHL] 270 s", paper))
     for preset in ("friction-wedge-high", "mt-2"):
@@ -92,11 +114,14 @@ def main(argv=None) -> int:
     ap.add_argument("mode", choices=("save", "compare"))
     ap.add_argument("file", type=Path)
     ap.add_argument("--quick", action="store_true", help="leave out the 270 s run")
+    ap.add_argument("--fade-rate", action="store_true",
+                    help="simplified couplers with fade = \"rate\" (compare with code "
+                         "from before that key)")
     args = ap.parse_args(argv)
     print(f"ltdsim from {Path(ltdsim.__file__).parent}", flush=True)
     ref = dict(np.load(args.file, allow_pickle=False)) if args.mode == "compare" else None
     store, bad = {}, 0
-    for label, sc in runs(args.quick):
+    for label, sc in runs(args.quick, args.fade_rate):
         t0 = time.process_time()
         ds = ltdsim.simulate(sc)
         took = time.process_time() - t0

@@ -112,7 +112,8 @@ def test_nonlinear_stiffness_read_on_the_deflection_is_the_printed_eq9(e, v, vc)
     # Eq. 9 as printed, without damping: P + (k3 + k2 exp(-e / v)) e, whatever the rate
     k2, k3 = 1.856364e6, 3.4748e6
     f = coupler_simplified(e, v, 0.0, 0.0, 0.0, 8.265776e6, k2, k3, vc, False, INF, 0.0)
-    assert_allclose(f, (k3 + k2 * np.exp(-e / vc)) * e, rtol=1e-13)
+    # (the kernel's fast exponential: within 5e-12 of numpy's, ltdsim.physics.decay)
+    assert_allclose(f, (k3 + k2 * np.exp(-e / vc)) * e, rtol=1e-11)
 
 
 @settings(max_examples=300, deadline=None)  # (the first call compiles: physics._lazy)

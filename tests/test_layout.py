@@ -285,6 +285,15 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     assert rec["f"].shape == (3, nv - 1) and rec["v"].shape == (3, nv)
     assert rec["x"].shape[1] == rec["a"].shape[1] == rec["d"].shape[1] == 0
     assert sim._buffers(lower(sc), 3, sim.recorded(sc))[0]["x"].shape == (3, nv)
+    # solver.energy: its states among the mechanical ones, out of bs23's error norm, and
+    # recorded with the kinetic energy; off, none
+    assert low.energy_state == -1 and low.trac[col(T, "energy_state")] == -1
+    counted = lower(sc.with_overrides({"solver.energy": True}))
+    ez, ne = counted.energy_state, L.N_ENERGY + nv - 1
+    assert counted.y0.size == low.y0.size + ne and (counted.y0[ez:ez + ne] == 0.0).all()
+    assert np.isinf(counted.atol[ez:ez + ne]).all() and (counted.rtol[ez:ez + ne] == 0).all()
+    assert sim._buffers(counted, 3, sim.recorded(sc.with_overrides(
+        {"solver.energy": True})))[0]["e"].shape == (3, ne + 1)
     placed = {
         Driver: {"mode", "notch_profile", "brake_profile", "brake_positions",
                  "force_profile", "speed_profile", "pid", "brake_controller",
@@ -296,7 +305,8 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
         # transitions and profile through Track.resistance_curve, checked there)
         Track: set(track) | {"transitions", "cant", "profile", "profile_file",
                              "rail_spacing"},
-        Solver: set(solver) | {"stability_check", "record"},  # (a check at validation)
+        Solver: set(solver) | {"stability_check", "record", "energy"},  # (a check at
+        #       validation; energy just above)
         Initial: {"speed", "velocities", "couplers"},
     }
     for cls, keys in placed.items():

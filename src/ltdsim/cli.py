@@ -391,6 +391,7 @@ def run(
         + f"{s['simulated_s']:.1f} s simulated in {s['wall_time_s']:.2f} s wall"
         + (f" (+{s['compile_time_s']:.1f} s compiling, once)" if s["compile_time_s"] > 0.5 else ""))
     _print_motion(ds)
+    _print_energy(ds, sc)
     brake = _print_fluid_brake(ds)
     curving = _print_curving(ds)
     warning = travel_warning(ds, sc)
@@ -458,6 +459,51 @@ def _print_motion(ds) -> None:
              f"from {_speed(stop['speed_m_s'])}, counted from the brake application at "
              f"{stop['brake_time_s']:.2f} s (the first brake command or dynamic-brake demand "
              "after the last traction demand; lead vehicle)")
+
+
+def _print_energy(ds, sc) -> None:
+    """The energy balance of a run with ``solver.energy = true`` (ltdsim.summary
+    .energy_summary): each term in MJ and kWh, the closure error, and per km and gross
+    tonne-km for a run that moved."""
+    from ltdsim.summary import KWH, energy_summary
+
+    e = energy_summary(ds, sc)
+    if e is None:
+        return
+    table = _table("Energy balance (work since the start; + in: traction; + out: the rest)",
+                   ("term", "energy [MJ]", "energy [kWh]"))
+    rows = [("traction at the rail, motoring (in)", e["traction_energy"]),
+            ("dynamic brake at the rail (out: regenerable)", e["dynamic_brake_energy"]),
+            ("air brakes (out)", e["air_brake_energy"]),
+            ("Davis running resistance (out)", e["davis_energy"]),
+            ("grade: potential energy gained (out)", e["grade_energy"]),
+            ("curve resistance (out)", e["curve_energy"]),
+            ("couplers: dissipated by their gears (out)", e["gear_dissipated"]),
+            ("couplers: stored at the end (out)", e["gear_stored"]),
+            ("kinetic energy gained (out)", e["kinetic_change"])]
+    def amount(value: float, unit: float) -> str:
+        # 4 significant figures, grouped thousands, no digits below a millionth of the
+        # throughput (round-off)
+        if abs(value) <= 1e-9 * max(e["throughput"], 1.0):
+            return "0"
+        x = value / unit
+        return f"{x:,.0f}" if abs(x) >= 1e4 else f"{x:.4g}"
+
+    for name, value in rows:
+        table.add_row(name, *(("-", "-") if value != value else
+                              (amount(value, 1e6), amount(value, KWH))))
+    console.print(table)
+    share = e["balance_error_share"]
+    _say(f"energy balance closes to {e['largest_balance_error']:.3g} J at worst"
+         + (f" ({share:.2g} of the traction throughput, {e['throughput'] / 1e6:.4g} MJ)"
+            if share == share else ""))
+    if e["traction_kwh_per_km"] == e["traction_kwh_per_km"]:
+        _say(f"traction at the rail: {e['traction_energy'] / KWH:,.0f} kWh over "
+             f"{abs(e['distance_m']) / 1e3:.3g} km, {e['traction_kwh_per_km']:.3g} kWh/km, "
+             f"{e['traction_wh_per_gross_tonne_km']:.3g} Wh per gross tonne-km "
+             f"({e['gross_tonnes']:,.0f} t); dynamic braking took back "
+             f"{e['dynamic_brake_energy'] / KWH:,.0f} kWh at the rail (what regeneration can "
+             "recover before the drive's losses)")
 
 
 def _fluid(sc) -> bool:

@@ -495,6 +495,61 @@ def operating_stiffness(c, d: float) -> float | None:
     return k / c.gears
 
 
+def _simplified_at_rest(c, x, branch):
+    if branch == "buff":
+        return c.preload + c.k1 * x
+    k2 = c.k2 * (np.exp(-x / c.v_c) if c.fade == "deflection" else 1.0)
+    return c.preload + (c.k3 + k2) * x
+
+
+def _wedge_unloading(c, x, branch):
+    from ltdsim.physics.draftgear import wedge_gear_quasistatic
+
+    s = c.S if c.S is not None else c.S_table.values[0][0]
+    return wedge_gear_quasistatic(x, 0.0, *np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]),
+                                  c.h1, c.h2, c.h3, s, c.k_m, c.x_m0, c.k_r, c.x_r0,
+                                  c.plate_gap, c.plate_backlash, -1.0)
+
+
+def _polymer_unloading(c, x, branch):
+    from ltdsim.physics.polymer import polymer_static
+
+    f = np.array([polymer_static(xi, c.preload, c.initial_stiffness, c.force_at_travel,
+                                 c.travel, c.exponent)[0] for xi in np.atleast_1d(x)])
+    return c.return_ratio * f
+
+
+#: each model's force at rest on the way back (N) at one gear's deflection ``x`` (m,
+#: magnitudes, an array) on a branch: the force it would give back unloading slowly
+_UNLOADING = {
+    "linear": lambda c, x, branch: c.stiffness * x,
+    "simplified": _simplified_at_rest,
+    "friction_wedge": _wedge_unloading,
+    "table": lambda c, x, branch: np.interp(x, *np.asarray(c.unloading, dtype=float).T),
+    "polymer": _polymer_unloading,
+}
+
+
+def stored_energy(c, d: float, points: int = 201) -> float:
+    """Energy coupling ``c`` stores at the coupling deflection ``d`` (m from neutral, +
+    draft), J: what its gears give back released slowly to the end of the slack, the
+    integral of each gear's force at rest on the way back (a hysteretic gear's unloading
+    curve) over its share of the deflection, times the gears in series, plus the solid
+    gear's part past the travel. 0 inside the slack. A coupler's work since the start
+    (``coupler_energy``) less this is what its gears have dissipated."""
+    h = 0.5 * c.slack
+    if abs(d) <= h and c.slack > 0.0:
+        return 0.0
+    x = (abs(d) - h) / c.gears
+    branch = "draft" if d > 0.0 else "buff"
+    xs = np.linspace(0.0, x, points)
+    f = np.asarray(_UNLOADING[c.model](c, xs, branch), dtype=float)
+    energy = float(np.trapezoid(f, xs))
+    if c.travel is not None and x > c.travel:
+        energy += 0.5 * c.solid_stiffness * (x - c.travel) ** 2
+    return c.gears * energy
+
+
 def stiffest(c) -> float:
     """Tangent stiffness of coupling ``c`` at its stiffest, N/m, solid closure included:
     one gear's over its ``gears`` in series (the fixed-step stability check)."""

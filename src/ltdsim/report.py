@@ -260,7 +260,9 @@ class _Report:
                 ("recoil stiffness k1 [MN/m]", "k1", "k1_N_m", 1e-6),
                 ("nonlinear stiffness k2 [MN/m]", "k2", "k2_N_m", 1e-6),
                 ("linear stiffness k3 [MN/m]", "k3", "k3_N_m", 1e-6),
-                ("critical velocity v_c [m/s]", "v_c", "v_c", 1.0)]
+                (("fade constant v_c [m]" if self.sc.coupler(0).model
+                  == "simplified" and self.sc.coupler(0).fade == "deflection" else
+                  "critical velocity v_c [m/s]"), "v_c", "v_c", 1.0)]
         t1 = pd.DataFrame([{"set": title, **{label: (red[lvl][k] if src == "ltdsim"
                                                      else simp[sk][idx]) * scale
                                              for label, k, sk, scale in keys}}

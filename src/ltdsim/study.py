@@ -358,7 +358,8 @@ def _stage_modal(out, cache, scenario: Scenario):
             continue
         save_mode_shapes(free, fig, title=f"Fig. 8, {branch} branch: coupling stiffness "
                                           f"{label[branch]} = {k[0] / 1e6:.2f} MN/m "
-                                          f"({gears} gear(s) per coupling); case "
+                                          f"({gears} gear{'s' if gears > 1 else ''} per "
+                                          "coupling); case "
                                           f"{scenario.case or scenario.name}, free train")
         value[branch] = {"free": free.frequency_hz.tolist(), "held": held.frequency_hz.tolist(),
                          "coupling_stiffness_N_m": float(k[0])}

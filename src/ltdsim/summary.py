@@ -604,3 +604,65 @@ def curving_summary(ds: xr.Dataset) -> dict | None:
         if stop:
             out["couplers_at_stops"] = int((a >= stop).any(axis=0).sum())
     return out
+
+
+#: J per kWh
+KWH = 3.6e6
+
+
+def energy_summary(ds: xr.Dataset, scenario=None) -> dict | None:
+    """Where the energy of a run went (``solver.energy = true``), else None.
+
+    Returns a dict, J unless named otherwise: each work term at the end of the run
+    (``traction_energy`` motoring at the rail, ``dynamic_brake_energy`` the work the
+    dynamic brake took back, the most it can regenerate, ``air_brake_energy``,
+    ``davis_energy``, ``grade_energy`` the potential energy gained, ``curve_energy``),
+    ``coupler_energy`` (the couplers' net work, all of them), ``gear_stored`` (what they
+    store at the end, :func:`ltdsim.coupler_models.stored_energy`; NaN when the run did
+    not record coupler_deflection), ``gear_dissipated`` (the difference),
+    ``kinetic_change`` (kinetic energy at the end less at the start), ``balance_error``
+    (what the integration leaves unaccounted at the end) and ``largest_balance_error``
+    (over the run), ``throughput`` (motoring plus dynamic braking) and
+    ``balance_error_share`` (the largest error over it, -); ``distance_m`` (the lead
+    vehicle's, m), ``gross_tonnes`` (the train's static mass, t), and where the train
+    moved, ``traction_kwh_per_km`` and ``traction_wh_per_gross_tonne_km`` (motoring
+    energy at the rail per km and per gross tonne-km).
+    """
+    if "traction_energy" not in ds:
+        return None
+    if scenario is None:
+        from ltdsim.scenario import Scenario
+
+        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+    from ltdsim.coupler_models import stored_energy
+    from ltdsim.layout import ENERGY_TERMS
+
+    out = {k: float(ds[k].values[-1]) for k in ENERGY_TERMS}
+    gears = ds.coupler_energy.values[-1] if ds.sizes.get("coupler", 0) else np.zeros(0)
+    out["coupler_energy"] = float(gears.sum())
+    if "coupler_deflection" in ds:
+        d = ds.coupler_deflection.values[-1]
+        stored = sum(stored_energy(scenario.coupler(j), float(d[j])) for j in range(d.size))
+    else:
+        stored = float("nan")
+    out["gear_stored"] = float(stored)
+    out["gear_dissipated"] = out["coupler_energy"] - out["gear_stored"]
+    kin = ds.kinetic_energy.values
+    out["kinetic_change"] = float(kin[-1] - kin[0])
+    err = ds.energy_balance_error.values
+    out["balance_error"] = float(err[-1])
+    out["largest_balance_error"] = float(np.max(np.abs(err)))
+    out["throughput"] = out["traction_energy"] + out["dynamic_brake_energy"]
+    out["balance_error_share"] = (out["largest_balance_error"] / out["throughput"]
+                                  if out["throughput"] > 0.0 else float("nan"))
+    out["gross_tonnes"] = sum(v.weight_mass for v in scenario.vehicles) / 1e3
+    dist = float(ds.position.values[-1, 0] - ds.position.values[0, 0]) if "position" in ds \
+        else float("nan")
+    out["distance_m"] = dist
+    km = abs(dist) / 1e3
+    moved = km > 1e-3
+    out["traction_kwh_per_km"] = out["traction_energy"] / KWH / km if moved else float("nan")
+    out["traction_wh_per_gross_tonne_km"] = (out["traction_energy"] / 3.6e3
+                                             / (km * out["gross_tonnes"])
+                                             if moved else float("nan"))
+    return out
