@@ -285,15 +285,24 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     assert rec["f"].shape == (3, nv - 1) and rec["v"].shape == (3, nv)
     assert rec["x"].shape[1] == rec["a"].shape[1] == rec["d"].shape[1] == 0
     assert sim._buffers(lower(sc), 3, sim.recorded(sc))[0]["x"].shape == (3, nv)
-    # solver.energy: its states among the mechanical ones, out of bs23's error norm, and
-    # recorded with the kinetic energy; off, none
-    assert low.energy_state == -1 and low.trac[col(T, "energy_state")] == -1
-    counted = lower(sc.with_overrides({"solver.energy": True}))
-    ez, ne = counted.energy_state, L.N_ENERGY + nv - 1
-    assert counted.y0.size == low.y0.size + ne and (counted.y0[ez:ez + ne] == 0.0).all()
-    assert np.isinf(counted.atol[ez:ez + ne]).all() and (counted.rtol[ez:ez + ne] == 0).all()
-    assert sim._buffers(counted, 3, sim.recorded(sc.with_overrides(
-        {"solver.energy": True})))[0]["e"].shape == (3, ne + 1)
+    # solver.energy: under bs23 (this scenario) states among the mechanical ones, out of
+    # the error norm; with a fixed step no states (the work is summed step by step in the
+    # work arrays); recorded with the kinetic energy either way; off, none of it
+    ne = L.N_ENERGY + nv - 1
+    assert low.trac[col(T, "energy_state")] == -1 and not low.energy
+    on = sc.with_overrides({"solver.energy": True})
+    counted = lower(on)
+    ez = int(counted.trac[col(T, "energy_state")])
+    assert counted.energy and counted.y0.size == low.y0.size + ne
+    assert (counted.y0[ez:ez + ne] == 0.0).all() and np.isinf(counted.atol[ez:ez + ne]).all()
+    assert (counted.rtol[ez:ez + ne] == 0.0).all()
+    fixed = on.with_overrides({"solver.method": "ode3"})
+    lf = lower(fixed)
+    assert lf.trac[col(T, "energy_state")] == -1 and lf.y0.size == lower(
+        sc.with_overrides({"solver.method": "ode3"})).y0.size
+    rec, *_, common = sim._buffers(lf, 3, sim.recorded(fixed))
+    assert rec["e"].shape == (3, ne + 1) and common[3].energy.shape == (ne,)
+    assert sim._buffers(low, 3, sim.recorded(sc))[5][3].energy.shape == (0,)
     placed = {
         Driver: {"mode", "notch_profile", "brake_profile", "brake_positions",
                  "force_profile", "speed_profile", "pid", "brake_controller",

@@ -498,11 +498,15 @@ def _print_energy(ds, sc) -> None:
          + (f" ({share:.2g} of the traction throughput, {e['throughput'] / 1e6:.4g} MJ)"
             if share == share else ""))
     if e["traction_kwh_per_km"] == e["traction_kwh_per_km"]:
-        _say(f"traction at the rail: {e['traction_energy'] / KWH:,.0f} kWh over "
+        def kwh(x: float) -> str:
+            x /= KWH
+            return f"{x:,.0f}" if abs(x) >= 1e3 else f"{x:.4g}"
+
+        _say(f"traction at the rail: {kwh(e['traction_energy'])} kWh over "
              f"{abs(e['distance_m']) / 1e3:.3g} km, {e['traction_kwh_per_km']:.3g} kWh/km, "
              f"{e['traction_wh_per_gross_tonne_km']:.3g} Wh per gross tonne-km "
              f"({e['gross_tonnes']:,.0f} t); dynamic braking took back "
-             f"{e['dynamic_brake_energy'] / KWH:,.0f} kWh at the rail (what regeneration can "
+             f"{kwh(e['dynamic_brake_energy'])} kWh at the rail (what regeneration can "
              "recover before the drive's losses)")
 
 

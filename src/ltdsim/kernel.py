@@ -299,6 +299,11 @@ AIR_STEPPER = np.dtype([("t0", np.float64), ("t1", np.float64), ("h", np.float64
 #: one's start)
 (AIR_Y0, AIR_Y1, AIR_F0, AIR_F1, AIR_K2, AIR_K3, AIR_YT, AIR_YP, AIR_FP) = range(9)
 N_AIR_ROWS = 9
+#: rows of :class:`Work`'s ``pw`` array: :func:`run` keeps the traction's powers at the
+#: step's start, every other power's first sample in the start row, the latest in the
+#: end row and the running sums of its samples (:func:`_account_fixed`);
+#: :func:`run_adaptive` passes the powers through the start row (:func:`_energy_rates`)
+PW_START, PW_END, PW_SUM = 0, 1, 2
 
 
 class AirBrake(NamedTuple):
@@ -337,6 +342,7 @@ class Train(NamedTuple):
     """The lowered train and track (columns in :mod:`ltdsim.layout`)."""
 
     veh: np.ndarray  # (n, N_VCOL) vehicles, V_* columns
+    powered: np.ndarray  # int64 indices of the powered vehicles (V_SHARE > 0)
     inv_m: np.ndarray  # (n,) inverse vehicle masses, 1/kg
     cons: np.ndarray  # (consists, N_KCOL) locomotive consists, K_* columns
     trac: np.ndarray  # traction and speed-controller constants, T_* slots
@@ -435,6 +441,13 @@ class Work(NamedTuple):
     ddem: np.ndarray  # (drives,) each induction drive's demand, N (from _traction)
     dsig: np.ndarray  # (drives, N_DRIVE_SIGNALS) its signals (layout.DRIVE_SIGNALS)
     dout: np.ndarray  # (drives, foc.N_OUT) its drive_rates outputs (foc.DRIVE_OUTPUTS)
+    energy: np.ndarray  # (N_ENERGY + n - 1,) or (0,): the work since the start, J (E_*
+    #                     terms, then one per coupler; solver.energy), carried between calls
+    #                     (run; run_adaptive integrates them as states)
+    pw: np.ndarray  # (3, energy size): the powers at the current step's start and end,
+    #                 W, and (run) their running sums (PW_* rows)
+    fprev: np.ndarray  # (consists,) the traction force held over the current step, N
+    bforce_on: np.ndarray  # (1,) bool: some vehicle has an air brake (its power counts)
 
 
 class Outputs(NamedTuple):
@@ -467,7 +480,8 @@ def make_train(low) -> Train:
     drive = Drive(of=low.drive_of, z=low.drive_z, motor=low.drive_motor,
                   ctrl=low.drive_ctrl, ws=low.drive_ws, rail=low.drive_rail,
                   slip=low.drive_slip, misc=low.drive_misc)
-    return Train(veh=low.veh, inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
+    return Train(veh=low.veh, powered=np.flatnonzero(low.veh[:, V_SHARE] > 0.0).astype(np.int64),
+                 inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
                  track_pos=low.track_pos, track_grade=low.track_grade,
                  track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab, air=air,
                  drive=drive)
@@ -508,13 +522,16 @@ def make_stepper(h0: float) -> np.ndarray:
 
 
 def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
-              air_steps: bool = False, drives: int = 0) -> Work:
+              air_steps: bool = False, drives: int = 0, energy: bool = False,
+              braked: bool = False) -> Work:
     """:class:`Work` for ``n`` vehicles, a state of ``ny`` elements, ``stages`` stage
     derivatives, ``n_consists`` locomotive consists and ``cells`` brake-pipe cells
     (fluid brake); ``air_steps``: the fluid brake's pneumatic states take their own
     steps (:func:`run_adaptive` with ``brake.model = "fluid"``); ``drives`` induction
-    drives."""
+    drives; ``energy``: the run accounts for the energy (``solver.energy``); ``braked``:
+    some vehicle has an air brake."""
     nc = max(n - 1, 1)
+    ne = N_ENERGY + n - 1 if energy else 0
     air_step = np.zeros(1, dtype=AIR_STEPPER)
     air_step[0]["h"] = 1e-4
     air_step[0]["last_error"] = 1.0
@@ -526,17 +543,19 @@ def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
                 inflow=np.zeros(cells),
                 air=np.zeros((N_AIR_ROWS, ny if air_steps else 0)), air_step=air_step,
                 ddem=np.zeros(drives), dsig=np.zeros((drives, N_DRIVE_SIGNALS)),
-                dout=np.zeros((drives, N_OUT)))
+                dout=np.zeros((drives, N_OUT)), energy=np.zeros(ne), pw=np.zeros((3, ne)),
+                fprev=np.zeros(n_consists), bforce_on=np.array([braked]))
 
 
 def work_size(n: int, ny: int, stages: int, n_consists: int = 1, cells: int = 0,
-              air_steps: bool = False, drives: int = 0) -> int:
+              air_steps: bool = False, drives: int = 0, energy: bool = False) -> int:
     """Elements (8 bytes each) of the :class:`Work` that :func:`make_work` builds for the
     same arguments, counted without allocating it (the memory check before a run)."""
     nc = max(n - 1, 1)
     return (stages * ny + 2 * ny + 2 * nc + 2 * n + n_consists + len(SIGNALS.names)
             + n + 2 + n_consists + 3 * n + cells + (N_AIR_ROWS * ny if air_steps else 0)
-            + len(AIR_STEPPER.names) + drives * (1 + N_DRIVE_SIGNALS + N_OUT))
+            + len(AIR_STEPPER.names) + drives * (1 + N_DRIVE_SIGNALS + N_OUT)
+            + (4 * (N_ENERGY + n - 1) if energy else 0) + n_consists + 1)
 
 @njit(cache=True, inline="always")
 def _segment(xs, x, hint):
@@ -1257,48 +1276,150 @@ def _force_balance(y, tr, w, dy):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _energy(y, tr, w, dy):
-    """Rates (W) of the energy states at ``y[ez:]`` (``ez`` the trac slot ``T_EZ``; none
-    when it is -1): the power of each force on each vehicle at its speed, from the
-    forces this evaluation computed (:class:`Work`). Traction at the rail is split by the
-    sign of its power on each vehicle (motoring; dynamic braking, counted as the power
-    the locomotive takes back); air brakes, Davis, grade and curve resistance each count
-    the power they take from the train (the grade's is the potential energy gained, < 0
-    downhill); each coupler the power it takes, ``T (v_j - v_(j+1))`` (its gears'
-    dissipation plus the rate of what they store). Integrated with the motion by the
-    same Runge-Kutta stages, so the balance closes to the method's accuracy."""
-    ez = int(tr.trac[T_EZ])
-    if ez < 0:
-        return
+def _powers(y, tr, w, row):
+    """The power of each force on the train (W) at state ``y`` into ``w.pw[row]`` (the
+    energy terms ``E_*``, then one per coupler), from the forces the last
+    right-hand-side evaluation left in :class:`Work`: traction at the rail split into
+    motoring and dynamic braking (:func:`_traction_powers`); air brakes, Davis, grade
+    and curve resistance each the power it takes from the train (the grade's is the
+    rate of potential energy gained, < 0 downhill; the Davis term is the vehicles' whole
+    resistance less the other three, the forces the motion used); each coupler the power
+    it takes, ``T (v_j - v_(j+1))`` (its gears' dissipation plus the rate of what they
+    store)."""
     veh = tr.veh
     n = veh.shape[0]
-    fcons = w.fcons
     tres = w.tres
-    motor = 0.0
-    dyn = 0.0
-    air = 0.0
-    davis = 0.0
+    res = w.res
+    pw = w.pw
+    pw[row, E_MOTOR], pw[row, E_DYN] = _traction_powers(y, tr, w, w.fcons)
+    total = 0.0
     grade = 0.0
     curve = 0.0
     for i in range(n):
         v = y[n + i]
-        p = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] * v
+        total += res[i] * v
+        grade += tres[i, 0] * v
+        curve += tres[i, 1] * abs(v)  # (curve_force's sign rule: it opposes the motion)
+    air = 0.0
+    if w.bforce_on[0]:
+        bforce = w.bforce
+        for i in range(n):
+            air += bforce[i] * y[n + i]
+    pw[row, E_AIR] = air
+    pw[row, E_DAVIS] = total - grade - curve - air
+    pw[row, E_GRADE] = grade
+    pw[row, E_CURVE] = curve
+    force = w.force
+    for j in range(n - 1):
+        pw[row, N_ENERGY + j] = force[j] * (y[n + j] - y[n + j + 1])
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _traction_powers(y, tr, w, f_trac):
+    """Power of the traction force ``f_trac`` (N per locomotive consist) at the rail at
+    state ``y``, W: ``(motoring, dynamic braking)``, split by the sign of its power on
+    each powered vehicle (dynamic braking counted as the power the locomotive takes
+    back, >= 0)."""
+    veh = tr.veh
+    n = veh.shape[0]
+    motor = 0.0
+    dyn = 0.0
+    for i in tr.powered:
+        p = veh[i, V_SHARE] * f_trac[int(veh[i, V_CONS])] * y[n + i]
         if p > 0.0:
             motor += p
         else:
             dyn -= p
-        air += w.bforce[i] * v
-        davis += davis_force(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DIV0]) * v
+    return motor, dyn
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _account_fixed(first, h, y, tr, w):
+    """The energy accounting of :func:`run` at the start of a step, after the right-hand
+    side at ``(t, y)`` (so the forces in :class:`Work` are this state's).
+
+    On a fixed grid the trapezoids of a power over the steps sum to ``h (the sum of all
+    its samples - (first + latest) / 2)``, so each step only adds the powers now to their
+    running sums (``w.pw[PW_SUM]``; the first samples in ``w.pw[PW_START]``) and
+    :func:`_energy_totals` forms the totals where they are recorded. Traction is the
+    exception: the driver's demand is held over a step and jumps where the controller
+    samples, so each step's trapezoid takes its end with the force held over that step
+    (``w.fprev``) and is added here."""
+    pw = w.pw
+    e = w.energy
+    veh = tr.veh
+    n = veh.shape[0]
+    tres = w.tres
+    res = w.res
+    motor, dyn = _traction_powers(y, tr, w, w.fcons)
+    if not first:
+        held_m, held_d = _traction_powers(y, tr, w, w.fprev)
+        half = 0.5 * h
+        e[E_MOTOR] += half * (pw[PW_START, E_MOTOR] + held_m)
+        e[E_DYN] += half * (pw[PW_START, E_DYN] + held_d)
+    pw[PW_START, E_MOTOR] = motor
+    pw[PW_START, E_DYN] = dyn
+    for c in range(w.fcons.shape[0]):
+        w.fprev[c] = w.fcons[c]
+    # (branch-free loops over the vehicles and the couplers)
+    total = 0.0
+    grade = 0.0
+    curve = 0.0
+    for i in range(n):
+        v = y[n + i]
+        total += res[i] * v
         grade += tres[i, 0] * v
         curve += tres[i, 1] * abs(v)  # (curve_force's sign rule: it opposes the motion)
-    dy[ez + E_MOTOR] = motor
-    dy[ez + E_DYN] = dyn
-    dy[ez + E_AIR] = air
-    dy[ez + E_DAVIS] = davis
-    dy[ez + E_GRADE] = grade
-    dy[ez + E_CURVE] = curve
+    air = 0.0
+    if w.bforce_on[0]:
+        bforce = w.bforce
+        for i in range(n):
+            air += bforce[i] * y[n + i]
+    force = w.force
+    if first:
+        pw[PW_START, E_AIR] = air
+        pw[PW_START, E_DAVIS] = total - grade - curve - air
+        pw[PW_START, E_GRADE] = grade
+        pw[PW_START, E_CURVE] = curve
+        for j in range(n - 1):
+            pw[PW_START, N_ENERGY + j] = force[j] * (y[n + j] - y[n + j + 1])
+        for q in range(E_AIR, pw.shape[1]):
+            pw[PW_SUM, q] = pw[PW_START, q]
+        return
+    pw[PW_SUM, E_AIR] += air
+    pw[PW_SUM, E_DAVIS] += total - grade - curve - air
+    pw[PW_SUM, E_GRADE] += grade
+    pw[PW_SUM, E_CURVE] += curve
     for j in range(n - 1):
-        dy[ez + N_ENERGY + j] = w.force[j] * (y[n + j] - y[n + j + 1])
+        pw[PW_SUM, N_ENERGY + j] += force[j] * (y[n + j] - y[n + j + 1])
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _energy_totals(h, y, tr, w):
+    """The energy totals of :func:`run` at the state ``y`` just accounted
+    (:func:`_account_fixed`) into ``w.energy`` (J): each continuous power's running sum
+    over the grid of step ``h`` (s) less half its first and its latest sample (this
+    state's, evaluated again here), times ``h`` (the trapezoids' sum); the traction
+    terms are summed step by step."""
+    pw = w.pw
+    _powers(y, tr, w, PW_END)
+    for q in range(E_AIR, pw.shape[1]):  # (E_MOTOR, E_DYN first: layout.ENERGY_TERMS)
+        w.energy[q] = h * (pw[PW_SUM, q] - 0.5 * (pw[PW_START, q] + pw[PW_END, q]))
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _energy_rates(y, tr, w, dy):
+    """For :func:`run_adaptive`: the powers (:func:`_powers`, W) as the rates of the
+    energy states at ``y[ez:]`` (the trac slot ``T_EZ``; nothing when it is -1), which
+    the embedded pair integrates with the motion, stage by stage: its steps are long,
+    and a coupler's impact inside one is seen only by its stages."""
+    ez = int(tr.trac[T_EZ])
+    if ez < 0:
+        return
+    _powers(y, tr, w, PW_START)
+    pw = w.pw
+    for q in range(pw.shape[1]):
+        dy[ez + q] = pw[PW_START, q]
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -1323,7 +1444,6 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     _induction(y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
-    _energy(y, tr, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -1339,7 +1459,7 @@ def rhs_split(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     _induction(y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
-    _energy(y, tr, w, dy)
+    _energy_rates(y, tr, w, dy)
 
 
 @njit(cache=True, inline="always")
@@ -1629,6 +1749,7 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     ts = drv[D_TS]
     half = 0.5 * dt  # (sample times fall on steps: ts is a whole number of steps)
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
+    energy = w.energy.shape[0] > 0
     # a counter instead of k % record_every: integer division is slow in the loop
     c_rec = k_start % record_every
     for k in range(k_start, k_stop):
@@ -1648,7 +1769,11 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         # stage 1 is the right-hand side at (t_k, y_k): record it when due
         rhs(t, y, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
         _track_peaks(force, peaks, n - 1, t)
+        if energy:  # the work of the step that ended here, from the powers at its ends
+            _account_fixed(k == 0, dt, y, tr, w)
         if c_rec == 0:
+            if energy:
+                _energy_totals(dt, y, tr, w)
             _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
                     out)
         _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
@@ -1663,6 +1788,9 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         t = k_stop * dt
         rhs(t, y, st["a_dem"], st["n_events"], tr, cp, dr, ctl.events, w, K[0:ny])
         _track_peaks(force, peaks, n - 1, t)
+        if energy:
+            _account_fixed(k_stop == 0, dt, y, tr, w)
+            _energy_totals(dt, y, tr, w)
         _record(k_stop // record_every, t, y, K, st["a_dem"], st["level"], speed_mode, tr,
                 dr, w, out)
     return OK, k_stop
@@ -2032,9 +2160,9 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
             out.m[r, kd, q] = w.dsig[kd, q]
     ne = out.e.shape[1]
     if ne > 0:
-        ez = int(trac[T_EZ])
+        ez = int(trac[T_EZ])  # (run_adaptive integrates them as states, run sums them)
         for q in range(ne - 1):
-            out.e[r, q] = y[ez + q]
+            out.e[r, q] = y[ez + q] if ez >= 0 else w.energy[q]
         kin = 0.0
         for i in range(n):
             kin += 0.5 * veh[i, V_MASS] * y[n + i] * y[n + i]

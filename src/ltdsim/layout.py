@@ -67,15 +67,16 @@ N_KCOL = len(CONSIST_COLUMNS)
 #: traction vector: the lead consist's curve (N, W, kg), the speed controller's output
 #: limits m/s^2, feedforward flag (0/1), the mass its output multiplies kg, gravity
 #: m/s^2, index of the vehicle whose speed is controlled, index in y of the first energy
-#: state (-1: no energy accounting, ``solver.energy = false``)
+#: state (bs23 with solver.energy: the energy terms integrated as states; -1 otherwise)
 TRACTION_SLOTS = ("max_force", "max_power", "adhesion_mass", "max_accel", "max_decel",
                   "feedforward", "demand_mass", "gravity", "speed_vehicle", "energy_state")
 (T_FMAX, T_PMAX, T_MADH, T_AMAX, T_DMAX, T_FF, T_MTOT, T_G, T_REF, T_EZ) = layout(
     *TRACTION_SLOTS)
 N_TRAC = len(TRACTION_SLOTS)
 
-#: the energy states (``solver.energy = true``), in y from ``T_EZ`` on, each the work
-#: done since the start, J: traction at the rail while motoring (its power > 0),
+#: the energy totals (``solver.energy = true``; the kernel's ``Work.energy``, or states
+#: from ``T_EZ`` under bs23), each the
+#: work done since the start, J: traction at the rail while motoring (its power > 0),
 #: dynamic braking at the rail (the energy the locomotives take back, >= 0), air brakes,
 #: Davis resistance, grade (the potential energy gained), curve resistance; then one per
 #: coupler, the net work it has taken (what its gears dissipated plus what they store)

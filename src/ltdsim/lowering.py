@@ -22,7 +22,7 @@ from ltdsim.layout import (
     D_AW, D_BCTRL, D_BFULLSUM, D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP,
     D_BTAUA, D_BTAUR, D_BVS, D_FILT, D_MODE, K_DBFADE, K_FMAX, K_MADH, K_NLEN, K_NOFF,
     K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH, K_Z, MODE_FORCE, MODE_NOTCH, MODE_SPEED, N_DRV,
-    N_ENERGY, N_KCOL, N_VCOL, T_EZ, T_REF, V_BDELAY, V_BFRIC, V_BFULL, V_BMU, V_BNTAB, V_BSHOE, V_BTAB, V_BZ,
+    N_ENERGY, N_KCOL, N_VCOL, T_REF, V_BDELAY, V_BFRIC, V_BFULL, V_BMU, V_BNTAB, V_BSHOE, V_BTAB, V_BZ,
     V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_MASS, V_P0, V_SHARE, V_WMASS,
 )
 from ltdsim.physics.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
@@ -84,6 +84,7 @@ class Lowered:
     max_step: float
     air_max_step: float  # bs23, fluid brake: largest pneumatic step, s
     adaptive: bool
+    energy: bool  # the run accounts for the energy (solver.energy)
     # the fluid brake (brake.model = "fluid"; empty for the lumped brake): gas and pipe
     # constants (layout.AIR_SLOTS), state offsets (layout.AIR_INDEX), cell lengths m,
     # centre distances m, leak Cd x area per cell m^2, control-valve rows (one per
@@ -146,11 +147,6 @@ class Lowered:
         """Initial deflection of each coupler, m: the offset added to ``x_j - x_(j+1)``
         (nonzero when the train starts stretched or bunched)."""
         return self.cpl[:, P_D0]
-
-    @property
-    def energy_state(self) -> int:
-        """Index in ``y0`` of the first energy state, -1 without energy accounting."""
-        return int(self.trac[T_EZ])
 
     @property
     def speed_vehicle(self) -> int:
@@ -252,9 +248,10 @@ def lower(s: Scenario) -> Lowered:
         share = cons[k, K_FMAX] / cons[:, K_FMAX].sum()
         cons[k, K_RATE] = jerk * m_total * share
 
-    # the energy states (solver.energy): among the mechanical ones, before any brake state
+    # under bs23 the energy terms are states (solver.energy), among the mechanical ones,
+    # before any brake state; the fixed-step kernel sums them step by step instead
     ez = -1
-    if s.solver.energy:
+    if s.solver.energy and s.solver.adaptive:
         ez = ny
         ne = N_ENERGY + nc
         ny += ne
@@ -367,7 +364,7 @@ def lower(s: Scenario) -> Lowered:
              "force": sv.atol * FORCE_SCALE, "fill": sv.atol,
              "pressure": sv.atol * PRESSURE_SCALE, "flow": sv.atol * FLOW_SCALE,
              "position": sv.atol,
-             # running totals of flows the other states control; they feed nothing back
+             # running totals of what the other states do; they feed nothing back
              "exhausted": np.inf, "energy": np.inf}
     scale.update({"flux": sv.atol, "volt": sv.atol * VOLT_SCALE,
                   "omega": sv.atol, "torque": sv.atol * FORCE_SCALE})
@@ -383,7 +380,7 @@ def lower(s: Scenario) -> Lowered:
         tableau=BS23 if sv.adaptive else get_tableau(sv.method), dt=float(sv.dt),
         n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
         atol=atol, rtol=rtol, max_step=float(sv.max_step),
-        air_max_step=float(sv.air_max_step), adaptive=sv.adaptive,
+        air_max_step=float(sv.air_max_step), adaptive=sv.adaptive, energy=sv.energy,
         gear_f1=np.array(gear_f1, dtype=np.int64), gear_of=np.array(gear_of, dtype=np.int64),
         gear_plate=np.array(gear_plate, dtype=np.int64),
         gear_exact=np.array(gear_exact, dtype=np.int64),

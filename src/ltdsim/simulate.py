@@ -185,7 +185,7 @@ def recording_bytes(scenario: Scenario) -> int:
                   + (2 * nd * N_DRIVE_SIGNALS if "m" in keep else 0)
                   + (2 * (N_ENERGY + nc + 1) if "e" in keep else 0))
     ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
-    if sv.energy:
+    if sv.energy and sv.adaptive:  # (bs23 integrates the energy terms as states)
         ny += N_ENERGY + nc
     cells = 0
     if scenario.brake.model == "fluid":
@@ -197,7 +197,7 @@ def recording_bytes(scenario: Scenario) -> int:
     stages = 4 if sv.adaptive else get_tableau(sv.method).stages
     air_steps = sv.adaptive and scenario.brake.model == "fluid"
     ny += nd * N_DRIVE_STATES
-    work = (kernel.work_size(n, ny, stages, nk, cells, air_steps, nd)
+    work = (kernel.work_size(n, ny, stages, nk, cells, air_steps, nd, sv.energy)
             + 4 * ny + 4 * nc + n + 2 + nk)
     return 8 * (n_samples * per_sample + work)
 
@@ -326,7 +326,7 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
         "bc": np.zeros((n_rec, cols("bc", nf))),
         "ax": np.zeros((n_rec, cols("ax", 1 if nf else 0))),
         "m": np.zeros((n_rec, cols("m", low.drive_z.size), N_DRIVE_SIGNALS)),
-        "e": np.zeros((n_rec, cols("e", N_ENERGY + nc + 1) if low.energy_state >= 0 else 0)),
+        "e": np.zeros((n_rec, cols("e", N_ENERGY + nc + 1) if low.energy else 0)),
         "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
         "events": np.zeros((MAX_EVENTS, N_EVENT_COLUMNS)),
     }
@@ -338,7 +338,8 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
     common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
               kernel.make_work(n, y.shape[0], stages, nk, low.pipe_dx_cell.size,
                                air_steps=low.adaptive and low.fluid,
-                               drives=low.drive_z.size), out)
+                               drives=low.drive_z.size, energy=low.energy,
+                               braked=low.braked), out)
     if low.adaptive:
         err_atol = low.atol.copy()
         err_atol[low.gear_f1] = np.inf
