@@ -13,7 +13,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from ltdsim.kernel import _interp, _segment  # the engine's own look-ups
+from ltdsim.engine.kernel import _interp, _segment  # the engine's own look-ups
 
 # ----------------------------------------------------------------- shared pieces
 D0, SLACK, K1, K3, DAMP = range(5)  # coupler columns

@@ -9,11 +9,11 @@ That is all it does: no brakes, no speed controller, no other coupler model, no
 traction lag, no other recorded variable. It is what a programmer would write by hand
 for this one case, to measure what ltdsim's general engine costs on top of it.
 
-It reads the validated :class:`ltdsim.scenario.Scenario` directly (not ltdsim's lowered
+It reads the validated :class:`ltdsim.scenario.model.Scenario` directly (not ltdsim's lowered
 tables) and calls the same compiled force laws as ltdsim's kernel
-(:func:`ltdsim.physics.couplers.simplified_force`,
+(:func:`ltdsim.physics.gears.couplers.simplified_force`,
 :func:`ltdsim.physics.resistance.davis_force`, ``grade_force``,
-``curve_force``, :func:`ltdsim.physics.traction.traction_max`), so that its
+``curve_force``, :func:`ltdsim.physics.drive.traction.traction_max`), so that its
 coupler forces agree with ltdsim's to round-off: a check that the two simulate the same
 train. The stepping, the force balance, the track and profile look-ups and the
 recording are written out here.
@@ -27,14 +27,14 @@ import numpy as np
 from numba import njit
 
 import ltdsim  # noqa: F401  (sets numba's cache folder before anything compiles)
-from ltdsim.physics.couplers import simplified_force
+from ltdsim.physics.gears.couplers import simplified_force
 from ltdsim.physics.resistance import (
     PURE_SIGN,
     curve_force,
     davis_force,
     grade_force,
 )
-from ltdsim.physics.traction import traction_max
+from ltdsim.physics.drive.traction import traction_max
 
 # ode3 (Bogacki-Shampine 3(2), its third-order solution; Simulink's ode3)
 _A21 = 0.5

@@ -10,7 +10,7 @@ import os
 import platform
 from pathlib import Path
 
-from ltdsim.io import atomic_path
+from ltdsim.results.io import atomic_path
 
 
 def machine() -> str:

@@ -35,9 +35,9 @@ from pathlib import Path
 from _results import publish
 
 import ltdsim
-from ltdsim.lowering import lower
-from ltdsim.reduce import reduce_gear
-from ltdsim.scenario import CouplerParams
+from ltdsim.engine.lowering import lower
+from ltdsim.analysis.reduction import reduce_gear
+from ltdsim.scenario.model import CouplerParams
 
 HERE = Path(__file__).resolve().parent
 PAPER = HERE.parent / "scenarios" / "paper.toml"

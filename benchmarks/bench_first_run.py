@@ -86,7 +86,7 @@ def _timed(cmd, cwd: Path, env: dict, log: Path) -> tuple[float, float]:
 
 def _first_run(clone: Path, work: Path, tag: str) -> dict:
     cache = Path(tempfile.mkdtemp(prefix=f"cache-{tag}-", dir=work))
-    cmd = [sys.executable, "-m", "ltdsim.cli", "run", "scenarios/paper.toml"]
+    cmd = [sys.executable, "-m", "ltdsim.cli.app", "run", "scenarios/paper.toml"]
     cold = _timed(cmd, clone, _env(clone, cache), work / f"run-cold-{tag}.log")
     warm = _timed(cmd, clone, _env(clone, cache), work / f"run-warm-{tag}.log")
     return {"cold": cold, "warm": warm, "cache": cache}
@@ -100,7 +100,7 @@ def _make_run(clone: Path, work: Path, tag: str) -> tuple[float, float]:
         # the Makefile's own command; -o: never (re)install into the shared environment
         cmd = ["make", "--no-print-directory", "run", f"VENV={venv}", "-o", str(stamp)]
     else:
-        cmd = [sys.executable, "-m", "ltdsim.cli", "study", "scenarios/paper.toml",
+        cmd = [sys.executable, "-m", "ltdsim.cli.app", "study", "scenarios/paper.toml",
                "--output", "report"]
     shutil.rmtree(clone / "report", ignore_errors=True)
     return _timed(cmd, clone, _env(clone, cache), work / f"make-run-{tag}.log")

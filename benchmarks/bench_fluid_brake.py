@@ -34,7 +34,7 @@ import numpy as np
 from _results import publish
 
 import ltdsim
-from ltdsim.summary import fluid_brake_summary, stopping
+from ltdsim.results.summary import fluid_brake_summary, stopping
 
 HERE = Path(__file__).resolve().parent
 SCEN = HERE.parent / "scenarios"

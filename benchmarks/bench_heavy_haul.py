@@ -160,7 +160,7 @@ def main(argv=None) -> dict:
             ("accuracy checks hold", "yes" if ok else "NO"),
         ]
         accuracy.update(ok=ok, halving_spread=spread, allowed=allowed)
-    from ltdsim.plotting import save_overview
+    from ltdsim.viz.plotting import save_overview
 
     save_overview(ds, args.out / "heavy_haul_trip.png")  # the trip at a glance
     result = {"vehicles": n, "trip_s": t_trip,

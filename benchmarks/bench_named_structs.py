@@ -1,12 +1,12 @@
 """Prototype: a kernel taking named structures against the same kernel taking positional
-arrays (issue 14, point 1: measure before converting ltdsim.kernel).
+arrays (issue 14, point 1: measure before converting ltdsim.engine.kernel).
 
 Two versions of one small train kernel, written with the same arithmetic in the same
 order: a chain of vehicles with Davis resistance, a grade table, nonlinear couplers with
 slack and damping, a sampled PI speed controller, Runge-Kutta stages from a tableau,
 records and peak forces; the right-hand side and the recorder are compiled once and
 inlined by LLVM (``forceinline=True``) and the kernels compiled without NRT, as in
-ltdsim.kernel.
+ltdsim.engine.kernel.
 
 * positional: 22 positional arguments; controller state a float vector read by index
   constants, the signal vector by literal index;

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from _results import publish
 
-from ltdsim.study import run_study
+from ltdsim.study.stages import run_study
 
 HERE = Path(__file__).resolve().parent
 PAPER = HERE.parent / "scenarios" / "paper.toml"

@@ -39,7 +39,7 @@ from pathlib import Path
 
 from _results import publish
 
-from ltdsim import sweep as sw
+from ltdsim.sweep import core as sw
 
 HERE = Path(__file__).resolve().parent
 PAPER = HERE.parent / "scenarios" / "paper.toml"
@@ -49,8 +49,8 @@ _WORKER_START = r"""
 import resource, sys, time
 c0 = time.process_time()
 import ltdsim
-from ltdsim import sweep  # what a worker imports to run a case
-import ltdsim.phases, ltdsim.summary
+from ltdsim.sweep import core as sweep  # what a worker imports to run a case
+import ltdsim.analysis.phases, ltdsim.results.summary
 c1 = time.process_time()
 sc = ltdsim.load_scenario(sys.argv[1], case="LHHL").with_overrides({"solver.t_end": 1e-3})
 ltdsim.simulate(sc)  # loads the kernel from numba's cache
@@ -61,7 +61,7 @@ print(c1 - c0, c2 - c1)
 
 _FORK_PREP = r"""
 import sys, time
-from ltdsim import sweep as sw
+from ltdsim.sweep import core as sw
 spec = sw.load_sweep(sys.argv[1])  # (the main process reads the cases in any case)
 c0 = time.process_time()
 sw.warm_cases(spec, list(spec.cases), load=True)  # what run_sweep does before it forks
@@ -71,7 +71,7 @@ print(time.process_time() - c0)
 
 _FRESH_SWEEP = r"""
 import sys, tempfile
-from ltdsim import sweep as sw
+from ltdsim.sweep import core as sw
 if sys.argv[2] == "spawn":
     sw.fork_possible = lambda: False  # the workers start as they do where fork is not used
 spec = sw.load_sweep(sys.argv[1])
@@ -115,10 +115,10 @@ def _fork_preparation() -> float:
 
 def _parts(spec, n_cases: int, out: Path) -> dict[str, float]:
     """Median CPU seconds of each part of a case's work, in this process."""
-    from ltdsim.io import atomic_path, sealed_json
-    from ltdsim.phases import phase_norms
-    from ltdsim.scenario import Scenario
-    from ltdsim.simulate import _dataset, _integrate, check_memory, lower, simulate
+    from ltdsim.results.io import atomic_path, sealed_json
+    from ltdsim.analysis.phases import phase_norms
+    from ltdsim.scenario.model import Scenario
+    from ltdsim.results.simulate import _dataset, _integrate, check_memory, lower, simulate
 
     simulate(spec.scenario(spec.cases[0]).with_overrides({"solver.t_end": 1e-3}))  # load
     parts: dict[str, list[float]] = {}

@@ -1,6 +1,6 @@
 """Profile where bs23's step is limited on the heavy-haul trip.
 
-Runs scenarios/heavy-haul.toml with a copy of :func:`ltdsim.kernel.run_adaptive` that
+Runs scenarios/heavy-haul.toml with a copy of :func:`ltdsim.engine.kernel.run_adaptive` that
 records, for every attempted step, the time (s), the step tried (s), the error norm
 (max over the state of |error| / (atol + rtol |y|)), the state element that set that
 maximum, and whether the step was accepted and whether it was cut to land on a target
@@ -31,9 +31,9 @@ import numpy as np
 from numba import njit
 
 import ltdsim
-from ltdsim import kernel
-from ltdsim.coupler_models import REGISTRY
-from ltdsim.io import atomic_path
+from ltdsim.engine import kernel
+from ltdsim.engine.couplers import REGISTRY
+from ltdsim.results.io import atomic_path
 
 from _results import machine
 

@@ -62,12 +62,12 @@ FORMS = {"copy (as the library)": 0, "plate jumps": PLATE_JUMPS, "carry jumps": 
 _COPY = r'''
 import numpy as np
 from numba import njit
-from ltdsim.coupler_models import (
+from ltdsim.engine.couplers import (
     HYS_KLOCK, P_F0, P_KSOLID, P_RATE, P_SLACK, P_TRAVEL, P_ZOFF, W_BACK, W_C1, W_C2, W_C3,
     W_G, W_GAP, W_H1, W_H2, W_H3, W_KM, W_KR, W_S, W_TA, W_TB, W_TG, W_XM0, W_XR0)
-from ltdsim.physics.couplers import gear_deflection, solid_closure
+from ltdsim.physics.gears.couplers import gear_deflection, solid_closure
 from ltdsim.physics.decay import HEAD_LIMIT, SERIES_LIMIT, exp_neg_small, series_head, _series
-from ltdsim.physics.draftgear import (
+from ltdsim.physics.gears.draftgear import (
     _psi_pair, hysteresis, plate_rate, plates_carried, plates_out, relax, spring_forces,
     PLATE_TOL)
 

@@ -9,7 +9,7 @@ Then it counts with valgrind's callgrind the instructions of
 
 * the library's ``coupler_force`` on those inputs, per coupler model;
 * for each wedge set, a copy of the wedge gear's evaluation with a scalar S (``_wedge``
-  below: the physics functions of ``ltdsim.physics.draftgear`` in the order
+  below: the physics functions of ``ltdsim.physics.gears.draftgear`` in the order
   ``coupler_models._gear`` and ``wedge_curves`` call them, the parts to leave out
   chosen by a flag at run time) with one part at a time left out (replaced by a few
   operations): the
@@ -44,14 +44,14 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
-from ltdsim.coupler_models import (
+from ltdsim.engine.couplers import (
     HYS_KLOCK, P_F0, P_KSOLID, P_RATE, P_SLACK, P_TRAVEL, P_ZOFF, W_BACK, W_C1, W_C2, W_C3,
     W_G, W_GAP, W_H1, W_H2, W_H3, W_KM, W_KR, W_S, W_TA, W_TB, W_TG, W_XM0, W_XR0,
     coupler_force,
 )
-from ltdsim.physics.couplers import gear_deflection
+from ltdsim.physics.gears.couplers import gear_deflection
 from ltdsim.physics.decay import HEAD_LIMIT, exp_neg_small, series_head
-from ltdsim.physics.draftgear import (
+from ltdsim.physics.gears.draftgear import (
     _psi_pair, gear_force, plate_rate, plates_carried, plates_out, relax, spring_forces,
 )
 
@@ -215,7 +215,7 @@ def _cases(work: Path, native: bool) -> dict:
     """Per preset: the lowered couplers and the recorded rows (recorded and saved
     natively, loaded under valgrind); with ``native`` also the 1 ms sample shares."""
     import ltdsim
-    from ltdsim.lowering import lower
+    from ltdsim.engine.lowering import lower
 
     base = ltdsim.load_scenario(PAPER, case="LHHL")
     out = {}

@@ -17,7 +17,7 @@ itself moves the results:
    leaves and re-enters its slack (its force steps between 0 and the gear's release
    force, about 99 kN for the high set, at each contact).
 3. A case without slack crossings during the measurement, two 90 t wagons meeting at
-   1.5 m/s through one gear (``ltdsim.gear.impact``), with ode3 from 4e-4 to 6.25e-6 s:
+   1.5 m/s through one gear (``ltdsim.analysis.gears.impact``), with ode3 from 4e-4 to 6.25e-6 s:
    the friction gear and, as a control, an undamped linear coupler (a smooth problem,
    where ode3 shows its third order).
 4. The time constant itself: the impact and the train's largest tension for
@@ -41,9 +41,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _results import machine  # noqa: E402
 
 import ltdsim  # noqa: E402
-from ltdsim.gear import impact  # noqa: E402
-from ltdsim.io import atomic_path  # noqa: E402
-from ltdsim.scenario import CouplerParams  # noqa: E402
+from ltdsim.analysis.gears import impact  # noqa: E402
+from ltdsim.results.io import atomic_path  # noqa: E402
+from ltdsim.scenario.model import CouplerParams  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 STEPS = (2e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)  # s, ode3

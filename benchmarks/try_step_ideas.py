@@ -3,7 +3,7 @@ the same process.
 
 Each idea is a variant of the adaptive run: tolerances scaled per state kind (applied
 to the lowered scenario's ``atol``), and/or other constants of the step-size
-controller (a copy of :func:`ltdsim.kernel.run_adaptive` made from its source with the
+controller (a copy of :func:`ltdsim.engine.kernel.run_adaptive` made from its source with the
 constants read from an argument, compiled apart, so the library's kernel stays the
 reference). Runs the reference and every variant over the first
 ``--t-end`` seconds of scenarios/heavy-haul.toml in interleaved rounds and reports, per
@@ -35,14 +35,14 @@ from pathlib import Path
 import numpy as np
 
 import ltdsim
-from ltdsim import kernel
+from ltdsim.engine import kernel
 
 from _results import publish
 from profile_steps import patched_run_adaptive, state_labels
 
 HERE = Path(__file__).resolve().parent
 HEAVY = HERE.parent / "scenarios" / "heavy-haul.toml"
-SIM = sys.modules["ltdsim.simulate"]
+SIM = sys.modules["ltdsim.results.simulate"]
 
 #: the step-size controller's constants, read from an array by the variant kernel:
 #: safety factor, PI exponents alpha and beta (fac = safety err^(-alpha/3)

@@ -20,9 +20,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ltdsim.creep_schema import RailCondition, SlipControl, Wheelset, rail_row, slip_row
-from ltdsim.creep_schema import wheelset_row as ws_row_of
-from ltdsim.physics import creep as cr
+from ltdsim.scenario.creep import RailCondition, SlipControl, Wheelset, rail_row, slip_row
+from ltdsim.scenario.creep import wheelset_row as ws_row_of
+from ltdsim.physics.drive import creep as cr
 
 HERE = Path(__file__).resolve().parent
 STATIC_MASS = 66630.0        # kg, the study's locomotive

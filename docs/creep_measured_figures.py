@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker
 import numpy as np
 
-from ltdsim.physics import creep as cr
+from ltdsim.physics.drive import creep as cr
 
 HERE = Path(__file__).resolve().parent
 DATA = tomllib.loads((HERE.parent / "tests" / "data" / "eurosprinter_creep.toml")

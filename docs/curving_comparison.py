@@ -19,9 +19,9 @@ import numpy as np
 import xarray as xr
 
 import ltdsim
-from ltdsim.curving import curve_limit
-from ltdsim.io import save_result
-from ltdsim.plotting import WIDTH, _save, plt
+from ltdsim.results.curving import curve_limit
+from ltdsim.results.io import save_result
+from ltdsim.viz.plotting import WIDTH, _save, plt
 
 HERE = Path(__file__).resolve().parent
 SCENARIO = HERE.parent / "scenarios" / "heavy-haul-s-curve.toml"

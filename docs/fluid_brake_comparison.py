@@ -22,9 +22,9 @@ import numpy as np
 import xarray as xr
 
 import ltdsim
-from ltdsim.io import save_result
-from ltdsim.plotting import WIDTH, _save, plt
-from ltdsim.summary import fluid_brake_summary, stopping
+from ltdsim.results.io import save_result
+from ltdsim.viz.plotting import WIDTH, _save, plt
+from ltdsim.results.summary import fluid_brake_summary, stopping
 
 HERE = Path(__file__).resolve().parent
 SCEN = HERE.parent / "scenarios"

@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ltdsim.drive_schema import load_motor
-from ltdsim.physics import foc
-from ltdsim.physics.induction import motor_row
+from ltdsim.scenario.motor import load_motor
+from ltdsim.physics.drive import foc
+from ltdsim.physics.drive.induction import motor_row
 
 RPM = math.pi / 30.0
 

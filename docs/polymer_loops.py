@@ -2,7 +2,7 @@
 
 The gear's deflection is driven 0 -> travel -> 0 at a constant closing speed (three
 speeds), its internal force integrated by the classical Runge-Kutta method with the
-law of ltdsim.physics.polymer; the static curves (speed 0) are drawn for reference.
+law of ltdsim.physics.gears.polymer; the static curves (speed 0) are drawn for reference.
 
     PYTHONPATH=src python docs/polymer_loops.py
 """
@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ltdsim.physics.polymer import polymer_curves, polymer_gear
-from ltdsim.plotting import WIDTH, _save, plt
-from ltdsim.scenario import load_gear_preset
+from ltdsim.physics.gears.polymer import polymer_curves, polymer_gear
+from ltdsim.viz.plotting import WIDTH, _save, plt
+from ltdsim.scenario.model import load_gear_preset
 
 KEYS = ("preload", "initial_stiffness", "force_at_travel", "travel", "exponent",
         "return_ratio", "gain_loading", "gain_unloading", "rate_speed")

@@ -8,8 +8,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ltdsim.physics import brakevalves as bv
-from ltdsim.physics.pneumatics import orifice_flow
+from ltdsim.physics.air import brakevalves as bv
+from ltdsim.physics.air.pneumatics import orifice_flow
 
 GAMMA, R_GAS, T, ATM, R_LIN = 1.4, 287.05, 293.15, 101325.0, 0.995
 PIPE_VOLUME = math.pi / 4 * 0.0318**2 * 15.0  # m^3: 15 m of 1 1/4 in pipe

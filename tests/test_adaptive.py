@@ -48,7 +48,7 @@ def test_bs23_lands_on_every_output_time_and_agrees_with_ode3():
 def test_bs23_tableau_is_scipys_rk23_and_meets_the_order_conditions():
     from scipy.integrate import RK23
 
-    from ltdsim.integrators import BS23
+    from ltdsim.engine.integrators import BS23
 
     # the same pair as SciPy's RK23, whose error weights are b_hat - b (ours: b - b_hat)
     assert_allclose(BS23.A, RK23.A, rtol=0, atol=1e-15)

@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from ltdsim.physics.brakepipe import (
+from ltdsim.physics.air.brakepipe import (
     air_viscosity,
     friction_factor,
     friction_phi,
@@ -24,7 +24,7 @@ from ltdsim.physics.brakepipe import (
     pipe_max_rate,
     pipe_rates,
 )
-from ltdsim.physics.pneumatics import orifice_flow
+from ltdsim.physics.air.pneumatics import orifice_flow
 
 GAMMA, R, T, PATM, R_LIN = 1.4, 287.05, 293.15, 101325.0, 0.995
 C = math.sqrt(R * T)  # isothermal speed of sound, m/s (290.1)

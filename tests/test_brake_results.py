@@ -1,7 +1,7 @@
 """What an engineer reads from a fluid-brake run: the propagation speed of an application
-along the train and the cylinders' 95 % times (ltdsim.summary.fluid_brake_summary),
+along the train and the cylinders' 95 % times (ltdsim.results.summary.fluid_brake_summary),
 checked on synthetic results whose arrival and filling times are known in closed form,
-and the pressure figure (ltdsim.plotting)."""
+and the pressure figure (ltdsim.viz.plotting)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import xarray as xr
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ltdsim.summary import CYLINDER_SHARE, PIPE_DROP, VENTED, fluid_brake_summary
+from ltdsim.results.summary import CYLINDER_SHARE, PIPE_DROP, VENTED, fluid_brake_summary
 
 P0 = 5.0e5  # Pa gauge, a charged pipe
 P_CYL = 3.8e5  # Pa gauge, a full cylinder

@@ -27,7 +27,7 @@ from _valve_rig import (
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from ltdsim.physics import brakevalves as bv
+from ltdsim.physics.air import brakevalves as bv
 
 BAR = 1e5
 PSI = 6894.757

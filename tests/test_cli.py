@@ -18,10 +18,10 @@ from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
 import ltdsim
-from ltdsim.cli import app
-from ltdsim.phases import WHOLE_RUN, phase_norms, phases_of
-from ltdsim.scenario import STUDY_PHASES
-from ltdsim.summary import stopping
+from ltdsim.cli.app import app
+from ltdsim.analysis.phases import WHOLE_RUN, phase_norms, phases_of
+from ltdsim.scenario.model import STUDY_PHASES
+from ltdsim.results.summary import stopping
 
 from conftest import PAPER, ROOT, build, train_dict
 from test_brakes_traction import BRAKE, single_braked_wagon
@@ -125,7 +125,7 @@ LONG = PULL.replace("t_end = 3.0", "t_end = 1.0e6")  # hours of simulation if it
 def no_simulation(monkeypatch):
     def refuse(*a, **k):
         raise AssertionError("simulated although the output was refused")
-    monkeypatch.setattr(sys.modules["ltdsim.simulate"], "simulate", refuse)
+    monkeypatch.setattr(sys.modules["ltdsim.results.simulate"], "simulate", refuse)
 
 
 @pytest.mark.parametrize("option, name", [("-o", "out.csv"), ("-o", "out"), ("-o", "out.NC4"),

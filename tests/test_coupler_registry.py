@@ -17,10 +17,10 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from ltdsim.coupler_models import MODEL_NAMES, N_CCOL, REGISTRY
+from ltdsim.engine.couplers import MODEL_NAMES, N_CCOL, REGISTRY
 from ltdsim.errors import ScenarioError
-from ltdsim.lowering import lower
-from ltdsim.scenario import COUPLER_CLASSES, CouplerParams, load_gear_preset
+from ltdsim.engine.lowering import lower
+from ltdsim.scenario.model import COUPLER_CLASSES, CouplerParams, load_gear_preset
 
 from conftest import build, train_dict
 
@@ -162,7 +162,7 @@ def test_every_coupler_key_lands_in_its_named_column(model, s_table, factors, sl
 
 
 def test_the_coupler_table_is_as_wide_as_the_common_columns_and_the_widest_model():
-    from ltdsim.coupler_models import COMMON_COLUMNS
+    from ltdsim.engine.couplers import COMMON_COLUMNS
 
     widths = {m: len(REGISTRY[m].columns) for m in MODEL_NAMES}
     assert N_CCOL == len(COMMON_COLUMNS) + max(widths.values())
@@ -248,7 +248,7 @@ def test_couplerparams_builds_the_model_class_and_merges_presets():
 def test_a_result_saved_before_the_model_classes_reads_back():
     # results used to save every coupler key of every model (others null or at their
     # defaults); a saved dump drops them, a file refuses them
-    from ltdsim.scenario import Scenario
+    from ltdsim.scenario.model import Scenario
 
     sc = build(train_dict([8e4, 9e4], coupler=FULL["friction_wedge"]))
     old = sc.to_dict()

@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 from scipy.special import ellipe, ellipk
 
-from ltdsim.creep_schema import (
+from ltdsim.scenario.creep import (
     Creep,
     RailCondition,
     SlipControl,
@@ -22,8 +22,8 @@ from ltdsim.creep_schema import (
     rail_row,
     slip_row,
 )
-from ltdsim.creep_schema import wheelset_row as ws_row_of
-from ltdsim.physics import creep as cr
+from ltdsim.scenario.creep import wheelset_row as ws_row_of
+from ltdsim.physics.drive import creep as cr
 
 STUDY_STATIC_MASS = 66630.0  # kg, the study's locomotive (Appendix I: m_stc - 9 x 90 t)
 WS = ws_row_of(Wheelset(), STUDY_STATIC_MASS, motor_inertia=15.0)
@@ -367,7 +367,7 @@ def _ode3_coasting(v_reg, h=1e-4, t_end=0.3):
     by the kernel's ode3 tableau at the study's step: the slip mode then sits on the
     steepest part of the curve at standstill. Returns the creep force's mean and
     standard deviation over the last 50 ms, N."""
-    from ltdsim.integrators import get_tableau
+    from ltdsim.engine.integrators import get_tableau
 
     tab = get_tableau("ode3")
     ws = ws_row_of(Wheelset(v_reg=v_reg), STUDY_STATIC_MASS, motor_inertia=15.0)

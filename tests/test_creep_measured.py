@@ -46,7 +46,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from ltdsim.physics import creep as cr
+from ltdsim.physics.drive import creep as cr
 
 DATA = tomllib.loads((Path(__file__).parent / "data" / "eurosprinter_creep.toml")
                      .read_text(encoding="utf-8"))

@@ -1,4 +1,4 @@
-"""Curving safety (ltdsim.curving, ltdsim.physics.curving) against closed forms: the
+"""Curving safety (ltdsim.results.curving, ltdsim.physics.curving) against closed forms: the
 plane curve of arcs and clothoids, coupler angles on a circle, the direction and size of
 the coupler's lateral components, the body's lateral and yaw balance, Nadal's and
 Prud'homme's limits and their published numbers."""
@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.special import fresnel
 
-from ltdsim.curving import Alignment, TrainGeometry, alignment_of, curving_state
+from ltdsim.results.curving import Alignment, TrainGeometry, alignment_of, curving_state
 from ltdsim.physics.curving import (
     body_lateral_balance,
     cant_deficiency,
@@ -21,7 +21,7 @@ from ltdsim.physics.curving import (
     nadal_limit,
     prudhomme_limit,
 )
-from ltdsim.scenario import Track
+from ltdsim.scenario.model import Track
 
 
 def _geo(n, half_b=4.2, overhang=1.0, mass=1.3e5):
@@ -77,7 +77,7 @@ def test_track_transitions_build_the_ramps():
     total = np.sum(kap * np.diff(starts))
     assert total == pytest.approx(300.0 / 300.0, rel=1e-12)  # 240 m arc + 2 x 60 m / 2
     # the kernel's track arrays are those steps
-    from ltdsim.lowering import merge_track
+    from ltdsim.engine.lowering import merge_track
 
     _, _, curv = merge_track(tr.gradient, steps)
     nonzero = np.array([0.0 if r == 0 else 1.0 / r for _, r in steps])
@@ -257,7 +257,7 @@ def test_profile_file_gives_the_same_alignment(tmp_path):
     the same track given as `curve`, `transitions` and `cant` gives; a bad row is one
     line naming the file and the line."""
     from ltdsim.errors import ScenarioError
-    from ltdsim.scenario import load_scenario
+    from ltdsim.scenario.model import load_scenario
 
     base = (tmp_path / "s.toml")
     toml = """name = "p"
@@ -308,8 +308,8 @@ def test_curve_limit_fed_back_as_steady_buff_reaches_the_limit():
     middle wagons' L/V at Nadal's limit within 1 %."""
     from conftest import build
 
-    from ltdsim.curving import curve_limit
-    from ltdsim.simulate import simulate
+    from ltdsim.results.curving import curve_limit
+    from ltdsim.results.simulate import simulate
 
     radius, cant, speed = 200.0, 0.05, 12.0
     wagon = {"name": "wagon", "mass": 1.3e5, "length": 15.0}
@@ -352,9 +352,9 @@ def test_curve_limit_cli_prints_the_function_and_refuses_bad_input():
     from conftest import ROOT
     from typer.testing import CliRunner
 
-    from ltdsim.cli import app
-    from ltdsim.curving import curve_limit
-    from ltdsim.scenario import Curving, load_scenario
+    from ltdsim.cli.app import app
+    from ltdsim.results.curving import curve_limit
+    from ltdsim.scenario.model import Curving, load_scenario
 
     path = ROOT / "scenarios" / "heavy-haul.toml"
     runner = CliRunner()
@@ -380,7 +380,7 @@ def test_run_report_and_figure_name_the_worst_place(tmp_path):
     import xarray as xr
     from typer.testing import CliRunner
 
-    from ltdsim.cli import app
+    from ltdsim.cli.app import app
 
     toml = tmp_path / "push.toml"
     toml.write_text("""name = "pushed"
@@ -444,9 +444,9 @@ def test_add_curving_on_records_and_angle_stops():
     import xarray as xr
     from conftest import train_dict
 
-    from ltdsim.curving import add_curving
-    from ltdsim.scenario import Scenario
-    from ltdsim.summary import curving_summary
+    from ltdsim.results.curving import add_curving
+    from ltdsim.scenario.model import Scenario
+    from ltdsim.results.summary import curving_summary
 
     n, L, R, F = 6, 15.0, 250.0, 4e5
     d = train_dict([8e4] * n, powered=(0,))

@@ -10,10 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from ltdsim.diagnostics import (
+from ltdsim.analysis.diagnostics import (
     base_run_diagnostics, closed_loop_modes, cruise_window, oscillation, reference_corners,
 )
-from ltdsim.summary import (column_max, column_min, gear_travel_check, run_summary,
+from ltdsim.results.summary import (column_max, column_min, gear_travel_check, run_summary,
                              travel_warning)
 
 from conftest import build, train_dict
@@ -176,7 +176,7 @@ def test_the_linearised_closed_loop_predicts_the_ring_and_its_cure_in_the_study_
     # the held locomotive at the lowest closed-loop mode, decaying at its damping ratio;
     # with the scenario as shipped the ring is gone
     import ltdsim
-    from ltdsim.diagnostics import PAPER_EARLIER_READING
+    from ltdsim.analysis.diagnostics import PAPER_EARLIER_READING
 
     from conftest import PAPER
 

@@ -10,10 +10,10 @@ import ltdsim
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from ltdsim.gear import drive_deflection, impact, loop_energy, table_from_ratings
-from ltdsim.physics.draftgear import wedge_gear_quasistatic
-from ltdsim.reduce import reduce_gear
-from ltdsim.scenario import CouplerParams
+from ltdsim.analysis.gears import drive_deflection, impact, loop_energy, table_from_ratings
+from ltdsim.physics.gears.draftgear import wedge_gear_quasistatic
+from ltdsim.analysis.reduction import reduce_gear
+from ltdsim.scenario.model import CouplerParams
 
 from conftest import PAPER
 
@@ -92,7 +92,7 @@ def test_the_curves_at_speed_are_equation_1_with_each_friction_at_its_sliding_sp
     """The compiled curves of a moving gear (friction laws at the sliding speeds of
     Eq. 4, the exponentials by series: below about 0.05 m/s all of them from the
     series' head at once) equal Eq. 1 and 3 by hand, to 1e-9."""
-    from ltdsim.physics.draftgear import wedge_curves
+    from ltdsim.physics.gears.draftgear import wedge_curves
 
     c = CouplerParams(preset=preset)
     a, b, g = (math.radians(w) for w in (c.alpha_deg, c.beta_deg, c.gamma_deg))
@@ -323,12 +323,12 @@ def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
     never above the loading curve, never negative), for internal forces below, inside
     and above the band, in draft and buff, with the plates anywhere (the plates on the
     unloading curve only while the spring seat carries them)."""
-    from ltdsim.coupler_models import (
+    from ltdsim.engine.couplers import (
         P_KSOLID, P_TRAVEL, W_BACK, W_C1, W_C2, W_C3, W_G, W_GAP, W_H1, W_H2, W_H3, W_KM,
         W_KR, W_S, W_TA, W_TB, W_TG, W_XM0, W_XR0, coupler_force, lower_coupler,
     )
-    from ltdsim.physics.couplers import solid_closure
-    from ltdsim.physics.draftgear import plates_carried, plates_out, wedge_curves
+    from ltdsim.physics.gears.couplers import solid_closure
+    from ltdsim.physics.gears.draftgear import plates_carried, plates_out, wedge_curves
 
     c = CouplerParams(preset=preset, slack=0.0)
     tables = []

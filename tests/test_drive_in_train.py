@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize_scalar
 
-from ltdsim.creep_schema import Wheelset, rail_row
-from ltdsim.creep_schema import RailCondition
-from ltdsim.physics import creep as cr
-from ltdsim.physics import foc
-from ltdsim.physics.induction import M_LM, M_LR, M_LS, M_P, M_RR, M_RS, motor_row
-from ltdsim.scenario import Scenario, load_scenario
-from ltdsim.simulate import simulate
+from ltdsim.scenario.creep import Wheelset, rail_row
+from ltdsim.scenario.creep import RailCondition
+from ltdsim.physics.drive import creep as cr
+from ltdsim.physics.drive import foc
+from ltdsim.physics.drive.induction import M_LM, M_LR, M_LS, M_P, M_RR, M_RS, motor_row
+from ltdsim.scenario.model import Scenario, load_scenario
+from ltdsim.results.simulate import simulate
 
 STATIC = 66630.0  # kg, the study's locomotive (static mass)
 

@@ -15,9 +15,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ltdsim.drive_schema import load_motor
-from ltdsim.physics import foc
-from ltdsim.physics.induction import (
+from ltdsim.scenario.motor import load_motor
+from ltdsim.physics.drive import foc
+from ltdsim.physics.drive.induction import (
     M_LM,
     M_LR,
     M_LS,
@@ -29,8 +29,8 @@ from ltdsim.physics.induction import (
     motor_row,
     torque,
 )
-from ltdsim.scenario import Scenario
-from ltdsim.simulate import simulate
+from ltdsim.scenario.model import Scenario
+from ltdsim.results.simulate import simulate
 
 PRESET = "study-850kw"
 GEAR = 5.02       # the default wheelset's gear ratio (creep_schema.Wheelset)
@@ -261,7 +261,7 @@ def test_speed_mode_at_speed_follows_the_controller_within_the_limits(speed):
     PID's changing demand, so it is not bounded by it step by step)."""
     from pathlib import Path
 
-    from ltdsim.scenario import load_scenario
+    from ltdsim.scenario.model import load_scenario
 
     root = Path(__file__).resolve().parents[1] / "scenarios"
     s = load_scenario(root / "paper-induction.toml").with_overrides(
@@ -282,7 +282,7 @@ def test_each_consist_starts_at_its_share_of_the_demand():
     notch 4 (half its traction curve at the speed, ``min(F_max, P_max / v,
     adhesion)``). Each one's motors deliver, from the first step, the torque of its
     demand (``demand r / (motors G eta)``, all within the drive's limits)."""
-    from ltdsim.physics.traction import traction_max
+    from ltdsim.physics.drive.traction import traction_max
 
     veh = [{"name": f"loco{k}", "mass": 1.0e6, "static_mass": STATIC, "length": 20.0,
             "davis": {"a": 0.0, "b": 0.0, "c": 0.0}, "powered": True} for k in range(3)]

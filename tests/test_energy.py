@@ -9,8 +9,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 import ltdsim
-from ltdsim.layout import ENERGY_TERMS
-from ltdsim.lowering import merge_track
+from ltdsim.engine.layout import ENERGY_TERMS
+from ltdsim.engine.lowering import merge_track
 
 from conftest import PAPER, ROOT, build, train_dict
 

@@ -16,10 +16,10 @@ import pandas as pd
 import pytest
 import xarray as xr
 
-from ltdsim import sweep as sw
+from ltdsim.sweep import core as sw
 from ltdsim.errors import ScenarioError
-from ltdsim.io import load_result, read_sealed
-from ltdsim.study import run_study
+from ltdsim.results.io import load_result, read_sealed
+from ltdsim.study.stages import run_study
 
 from conftest import PAPER, ROOT
 
@@ -101,7 +101,7 @@ def test_a_killed_sweep_leaves_no_process_and_resumes_to_the_same_results(tmp_pa
     out = tmp_path / "killed"
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(ROOT / "src"), *filter(None, [os.environ.get("PYTHONPATH")])])}
-    proc = subprocess.Popen([sys.executable, "-m", "ltdsim.cli", "sweep", str(path), "-o",
+    proc = subprocess.Popen([sys.executable, "-m", "ltdsim.cli.app", "sweep", str(path), "-o",
                              str(out), "--workers", "2", "--no-figures"], env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:

@@ -18,16 +18,16 @@ import numpy as np
 import pytest
 
 import ltdsim
-from ltdsim import kernel
+from ltdsim.engine import kernel
 from ltdsim.errors import ScenarioError
-from ltdsim.lowering import lower
-from ltdsim.physics import brakevalves as bv
-from ltdsim.summary import PIPE_DROP
+from ltdsim.engine.lowering import lower
+from ltdsim.physics.air import brakevalves as bv
+from ltdsim.results.summary import PIPE_DROP
 
 from conftest import build
 
-#: the module (``ltdsim.simulate`` is also the function the package exports)
-sim = importlib.import_module("ltdsim.simulate")
+#: the module (``ltdsim.results.simulate`` is also the function the package exports)
+sim = importlib.import_module("ltdsim.results.simulate")
 
 #: UIC 540 (the study's sonic propagation; brake-pipe emergency wave measured at
 #: 250-300 m/s): the least propagation speed of an emergency application, m/s
@@ -202,7 +202,7 @@ def _masses(low, y, preset):
     """Air mass (kg) in the pipe, every valve's volumes and to atmosphere, from the
     state ``y`` (pressures Pa abs) and the volumes of the pipe's bore and the preset file
     (read here, not through the engine)."""
-    from ltdsim.physics.brakevalves import CV_STATES, DV_STATES
+    from ltdsim.physics.air.brakevalves import CV_STATES, DV_STATES
 
     rt = 287.05 * 293.15
     idx = low.air_index

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy.integrate import solve_ivp
 
-from ltdsim.coupler_models import P_RATE, coupler_force, lower_coupler
-from ltdsim.gear import drive_deflection, impact
-from ltdsim.kernel import _relax_in_slack
-from ltdsim.scenario import CouplerParams
+from ltdsim.engine.couplers import P_RATE, coupler_force, lower_coupler
+from ltdsim.analysis.gears import drive_deflection, impact
+from ltdsim.engine.kernel import _relax_in_slack
+from ltdsim.scenario.model import CouplerParams
 
 # a table gear whose loading and unloading curves are parallel lines (slope S, N/m) and
 # do not depend on speed: the internal force then obeys the plain law in closed form

@@ -9,7 +9,7 @@ from numpy.testing import assert_allclose
 
 import ltdsim
 from ltdsim.physics import curve_resistance, davis_resistance, grade_resistance
-from ltdsim.lowering import merge_track
+from ltdsim.engine.lowering import merge_track
 
 from conftest import ROOT
 

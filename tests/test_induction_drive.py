@@ -1,6 +1,6 @@
 """The induction traction drive: machine model, field-oriented control, inverter limit.
 
-Each check compares the compiled laws (``ltdsim.physics.induction``, ``ltdsim.physics.foc``)
+Each check compares the compiled laws (``ltdsim.physics.drive.induction``, ``ltdsim.physics.drive.foc``)
 with something independent: the machine's equivalent circuit solved with complex phasors,
 the first-order response the current-loop design promises, the study's ratings, and the
 power balance of the machine, integrated by scipy's ``solve_ivp`` (not the project's
@@ -17,9 +17,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from ltdsim.drive_schema import Motor, load_motor, motor_presets
-from ltdsim.physics import foc
-from ltdsim.physics.induction import (
+from ltdsim.scenario.motor import Motor, load_motor, motor_presets
+from ltdsim.physics.drive import foc
+from ltdsim.physics.drive.induction import (
     M_LM,
     M_LR,
     M_P,
@@ -130,7 +130,7 @@ def test_motor_schema_refuses_bad_values():
 
 
 def test_bad_motor_preset_is_one_line_naming_file_and_key(tmp_path, monkeypatch):
-    import ltdsim.drive_schema as ds
+    import ltdsim.scenario.motor as ds
 
     text = ds._motor_dir().joinpath(f"{PRESET}.toml").read_text(encoding="utf-8")
     bad = text.replace("rotor_resistance = 0.020563", "rotor_resistance = -0.02")

@@ -87,7 +87,7 @@ def test_override_of_a_vehicle_that_does_not_exist(tmp_path):
 
 def test_cli_reports_bad_input_in_one_line_without_a_traceback(tmp_path):
     bad = write(tmp_path, EXAMPLE.replace("mass = 90000.0", "mass = -1.0"))
-    proc = subprocess.run([sys.executable, "-m", "ltdsim.cli", "run", str(bad), "-q"],
+    proc = subprocess.run([sys.executable, "-m", "ltdsim.cli.app", "run", str(bad), "-q"],
                           capture_output=True, text=True)
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr + proc.stdout
@@ -150,7 +150,7 @@ def test_impossible_gear_ratings_are_named(args, key):
     base = {"--travel": "0.083", "--force": "2.27e6", "--capacity": "5e4",
             "--absorptivity": "0.8"}
     base.update(dict(zip(args[::2], args[1::2])))
-    cmd = [sys.executable, "-m", "ltdsim.cli", "gear", "ratings"]
+    cmd = [sys.executable, "-m", "ltdsim.cli.app", "gear", "ratings"]
     for k, v in base.items():
         cmd += [k, v]
     proc = subprocess.run(cmd, capture_output=True, text=True)
@@ -164,7 +164,7 @@ def test_impossible_gear_ratings_are_named(args, key):
 # the key, exit code 2, no traceback.
 from typer.testing import CliRunner
 
-from ltdsim.cli import app
+from ltdsim.cli.app import app
 
 RUNNER = CliRunner()
 SHORT = ROOT / "scenarios" / "short-train.toml"
@@ -422,8 +422,8 @@ def test_monte_carlo_samples_and_seed_are_whole_numbers(tmp_path, line, key):
     assert f"monte_carlo.{key}" in msg
 
 
-# explicit fixed-step methods: the largest stable step (ltdsim.stability)
-from ltdsim.stability import (
+# explicit fixed-step methods: the largest stable step (ltdsim.engine.preflight)
+from ltdsim.engine.preflight import (
     WARN_SHARE,
     imaginary_radius,
     real_radius,
@@ -539,8 +539,8 @@ import tomllib
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ltdsim.lowering import lower
-from ltdsim.scenario import scenario_from_data
+from ltdsim.engine.lowering import lower
+from ltdsim.scenario.model import scenario_from_data
 
 SHIPPED = {p.name: p.read_bytes() for p in sorted((ROOT / "scenarios").glob("*.toml"))
            if b"scenario = " not in p.read_bytes()}  # (not the sweep file)
@@ -644,12 +644,12 @@ import tracemalloc  # noqa: E402
 import xarray as xr  # noqa: E402
 from typer.testing import CliRunner  # noqa: E402
 
-from ltdsim import study  # noqa: E402
-from ltdsim import sweep as sw  # noqa: E402
+from ltdsim.study import stages as study  # noqa: E402
+from ltdsim.sweep import core as sw  # noqa: E402
 
 SHORT = ROOT / "scenarios" / "short-train.toml"
 PAPER_TOML = ROOT / "scenarios" / "paper.toml"
-SIM = sys.modules["ltdsim.simulate"]
+SIM = sys.modules["ltdsim.results.simulate"]
 
 
 def cli(*args):
@@ -897,11 +897,11 @@ def _id(args) -> str:
 
 @pytest.fixture
 def reduce_refused(monkeypatch):
-    import ltdsim.reduce
+    import ltdsim.analysis.reduction
 
     def refuse(*a, **k):
         raise AssertionError("the fit started although its output was refused")
-    monkeypatch.setattr(ltdsim.reduce, "reduce_gear", refuse)
+    monkeypatch.setattr(ltdsim.analysis.reduction, "reduce_gear", refuse)
 
 
 @pytest.mark.parametrize("args", OUTPUT_COMMANDS, ids=_id)
@@ -1017,7 +1017,7 @@ def test_a_write_that_fails_after_the_run_is_one_line_exit_3(tmp_path, monkeypat
     # the output folder passed the check, then the disk filled up while the train ran
     def disk_full(ds, path):
         raise OSError(28, "No space left on device", str(path))
-    monkeypatch.setattr(sys.modules["ltdsim.io"], "save_result", disk_full)
+    monkeypatch.setattr(sys.modules["ltdsim.results.io"], "save_result", disk_full)
     path = write(tmp_path, EXAMPLE.replace("t_end = 60.0", "t_end = 0.5"))
     refused(["run", path, "-q", "-o", tmp_path / "r.nc"], "r.nc", "No space left", code=3)
 

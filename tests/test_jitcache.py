@@ -25,7 +25,7 @@ SLACK, PRELOAD, DAMP, K1, K2, K3, VC = 0.02, 5e4, 1e3, 8.0e6, 1.9e6, 3.5e6, 0.6
 D = 0.5 * SLACK + 0.01  # m, coupler deflection: 10 mm past the slack's edge
 
 FORCE = (
-    "import math, ltdsim.physics.couplers as c; "
+    "import math, ltdsim.physics.gears.couplers as c; "
     f"print(repr(float(c.coupler_simplified({D}, 0.0, {SLACK}, {PRELOAD}, {DAMP}, {K1}, "
     f"{K2}, {K3}, {VC}, True, math.inf, 0.0))))"
 )

@@ -9,8 +9,8 @@ from numpy.testing import assert_allclose
 
 import ltdsim
 from ltdsim.data import study_tables
-from ltdsim.modal import chain_modes, train_modes
-from ltdsim.response import ramp_error, step_metrics, tf_from_z_inverse
+from ltdsim.analysis.modal import chain_modes, train_modes
+from ltdsim.analysis.response import ramp_error, step_metrics, tf_from_z_inverse
 
 from conftest import PAPER
 
@@ -68,7 +68,7 @@ def test_appendix_ii_models_reproduce_table_4_overshoot_and_peak(case):
 
 
 def test_known_sines_are_read_back_at_the_right_frequency_and_amplitude():
-    from ltdsim.spectra import amplitude_spectrum, spectral_peaks
+    from ltdsim.analysis.spectra import amplitude_spectrum, spectral_peaks
 
     dt, n = 1e-3, 100_000  # 100 s: 0.01 Hz bins; tones between bins
     t = np.arange(n) * dt
@@ -82,7 +82,7 @@ def test_known_sines_are_read_back_at_the_right_frequency_and_amplitude():
 
 
 def test_band_rms_from_the_spectrum_equals_the_time_domain_rms_of_the_band():
-    from ltdsim.spectra import amplitude_spectrum, band_stats
+    from ltdsim.analysis.spectra import amplitude_spectrum, band_stats
 
     dt, n = 1e-3, 10_000
     t = np.arange(n) * dt
@@ -93,8 +93,8 @@ def test_band_rms_from_the_spectrum_equals_the_time_domain_rms_of_the_band():
 
 
 def test_main_coupler_force_peaks_lie_in_the_trains_modal_band():
-    from ltdsim.phases import phases_of
-    from ltdsim.spectra import amplitude_spectrum, spectral_peaks
+    from ltdsim.analysis.phases import phases_of
+    from ltdsim.analysis.spectra import amplitude_spectrum, spectral_peaks
 
     sc = ltdsim.load_scenario(PAPER, case="LHHL")
     ds = ltdsim.simulate(sc)
@@ -118,7 +118,7 @@ def test_main_coupler_force_peaks_lie_in_the_trains_modal_band():
 def test_identification_recovers_a_known_four_pole_three_zero_system():
     from scipy import optimize, signal
 
-    from ltdsim.identify import identify
+    from ltdsim.analysis.identify import identify
 
     # two lightly damped modes, like a sampled mechanical chain
     poles = np.array([0.97 * np.exp(1j * 0.2), 0.97 * np.exp(-1j * 0.2),
@@ -139,7 +139,7 @@ def test_identification_recovers_a_known_four_pole_three_zero_system():
 
 
 def test_identification_of_the_base_scenario_reports_its_fits():
-    from ltdsim.identify import identify_result
+    from ltdsim.analysis.identify import identify_result
 
     ds = ltdsim.simulate(ltdsim.load_scenario(PAPER, case="LHHL"))
     m = identify_result(ds, resample_dt=0.01)
@@ -152,7 +152,7 @@ def test_identification_of_the_base_scenario_reports_its_fits():
 
 
 def test_best_response_is_the_fast_one_without_overshoot():
-    from ltdsim.response import rank_responses
+    from ltdsim.analysis.response import rank_responses
 
     systems = {"slow": control.tf([1], [2.0, 1]), "fast": control.tf([1], [0.2, 1]),
                "ringing": control.tf([25.0], [1, 2.0, 25.0])}  # 25 % overshoot, fast
@@ -161,7 +161,7 @@ def test_best_response_is_the_fast_one_without_overshoot():
 
 
 def test_welch_psd_integrates_to_the_variance_and_peaks_at_the_tone():
-    from ltdsim.spectra import welch_psd
+    from ltdsim.analysis.spectra import welch_psd
 
     dt = 1e-3
     t = np.arange(200_000) * dt

@@ -3,7 +3,7 @@ modal analysis computes for it.
 
 Each test runs the compiled kernel on a train that vibrates freely about a state and
 reads its natural frequencies off the coupler forces (FFT), then compares them with
-:func:`ltdsim.modal.train_modes` on the same scenario: the eigenvalues of the chain whose
+:func:`ltdsim.analysis.modal.train_modes` on the same scenario: the eigenvalues of the chain whose
 springs are the couplings' stiffness as the kernel applies it (one gear or two in
 series, on the branch the couplings are on).
 """
@@ -16,7 +16,7 @@ from numpy.testing import assert_allclose
 from scipy import signal
 
 import ltdsim
-from ltdsim.modal import operating_stiffness, train_modes
+from ltdsim.analysis.modal import operating_stiffness, train_modes
 
 from conftest import build
 

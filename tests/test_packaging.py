@@ -27,8 +27,8 @@ from pathlib import Path
 
 import pytest
 
-from ltdsim.gear import impact
-from ltdsim.scenario import CouplerParams
+from ltdsim.analysis.gears import impact
+from ltdsim.scenario.model import CouplerParams
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "src" / "ltdsim"

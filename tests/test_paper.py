@@ -7,7 +7,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 import ltdsim
-from ltdsim.io import load_result, save_result
+from ltdsim.results.io import load_result, save_result
 
 from ltdsim.data import study_tables
 

@@ -1,7 +1,7 @@
 """Draft gears cannot create energy: the net work a gear takes over a closed deflection
 cycle is zero or more, for every coupler model, at any rate and amplitude.
 
-Each cycle is driven on the gear rig (:func:`ltdsim.gear.drive_deflection`, the kernel's
+Each cycle is driven on the gear rig (:func:`ltdsim.analysis.gears.drive_deflection`, the kernel's
 own coupler code) along a random piecewise-linear path: waypoints of deflection reached
 at random speeds, so that a gear loads fast and unloads slowly, or the other way round,
 with reversals part of the way. A hysteretic gear's cycle starts and ends in the
@@ -22,8 +22,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from ltdsim.gear import drive_deflection
-from ltdsim.scenario import CouplerParams
+from ltdsim.analysis.gears import drive_deflection
+from ltdsim.scenario.model import CouplerParams
 
 fin = {"allow_nan": False, "allow_infinity": False}
 

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ltdsim.physics.pneumatics import critical_ratio, orifice_conductance, orifice_flow
+from ltdsim.physics.air.pneumatics import critical_ratio, orifice_conductance, orifice_flow
 
 GAMMA, R, T = 1.4, 287.05, 293.15
 CDA = 0.8 * math.pi * 0.002**2 / 4  # Cd 0.8, 2 mm diameter, m^2

@@ -1,4 +1,4 @@
-"""The polymer draft gear (ltdsim.physics.polymer) on its own.
+"""The polymer draft gear (ltdsim.physics.gears.polymer) on its own.
 
 Checked against things independent of the law's code:
 (a) over a closed deflection loop the energy the gear absorbs (the integral of F dx)
@@ -27,8 +27,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numba import njit
 
-from ltdsim.physics.polymer import polymer_gear
-from ltdsim.scenario import load_gear_preset
+from ltdsim.physics.gears.polymer import polymer_gear
+from ltdsim.scenario.model import load_gear_preset
 
 PRESET = "polymer-heavy-haul"
 #: the law's parameters in the order :func:`polymer_gear` takes them
@@ -359,11 +359,11 @@ def test_impact_agrees_with_another_solver():
 @pytest.mark.parametrize("v0", [1.0, 2.0])
 def test_impact_through_simulate(v0):
     """The polymer gear wired into the coupler registry: a wagon impact run by
-    ``simulate()`` (``ltdsim.gear.impact``) conserves momentum, its kinetic energy lost
+    ``simulate()`` (``ltdsim.analysis.gears.impact``) conserves momentum, its kinetic energy lost
     equals the energy the coupling absorbed, and its peak force, travel and energy agree
     with this file's own driver of the law."""
-    from ltdsim.gear import impact
-    from ltdsim.scenario import CouplerParams
+    from ltdsim.analysis.gears import impact
+    from ltdsim.scenario.model import CouplerParams
 
     p = gear()
     tau, m = 2e-3, 100e3

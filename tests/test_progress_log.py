@@ -14,7 +14,7 @@ from numba import njit
 from rich.console import Console
 
 from ltdsim.progress import COMPILING, Display
-from ltdsim.warmup import KernelCall, warm_up
+from ltdsim.engine.warmup import KernelCall, warm_up
 
 from conftest import ROOT
 from test_study import short_paper
@@ -23,7 +23,7 @@ STAMP = r"\d\d:\d\d:\d\d "
 
 
 def _cli(*args, cwd=None):
-    proc = subprocess.run([sys.executable, "-m", "ltdsim.cli", *map(str, args)],
+    proc = subprocess.run([sys.executable, "-m", "ltdsim.cli.app", *map(str, args)],
                           capture_output=True, text=True, cwd=cwd, timeout=900)
     assert proc.returncode == 0, proc.stderr
     return proc.stderr.splitlines()

@@ -1,6 +1,6 @@
 """docs/scenario.md against the scenario schema.
 
-The key tables of docs/scenario.md are generated (ltdsim.schemadoc). These tests check
+The key tables of docs/scenario.md are generated (ltdsim.scenario.doc). These tests check
 that the file is what the generator writes now (so it cannot drift from the code), that
 every quantity's description carries a unit, and, against an independent reading of the
 schema (pydantic's JSON schema, walked here without the generator), that every field of
@@ -17,8 +17,8 @@ from typing import Annotated, Literal
 import pytest
 from pydantic import BaseModel, ConfigDict, Field
 
-from ltdsim import schemadoc
-from ltdsim.scenario import Scenario
+from ltdsim.scenario import doc as schemadoc
+from ltdsim.scenario.model import Scenario
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "scenario.md"
 
@@ -219,7 +219,7 @@ def problems(model: type[BaseModel], text: str) -> list[str]:
 def test_doc_is_generated_from_the_schema():
     text = DOC.read_text(encoding="utf-8")
     assert schemadoc.render(text) == text, (
-        "docs/scenario.md differs from the schema: run `python -m ltdsim.schemadoc` "
+        "docs/scenario.md differs from the schema: run `python -m ltdsim.scenario.doc` "
         "and commit the result")
 
 
@@ -235,7 +235,7 @@ def test_every_quantity_has_a_unit():
     missing = schemadoc.missing_units()
     assert missing == [], ("no unit in the description of " + ", ".join(missing) +
                            " (write 'meaning, UNIT', '-' for dimensionless; see "
-                           "ltdsim.schemadoc)")
+                           "ltdsim.scenario.doc)")
 
 
 # ------------------------------------------------ the generator on models of its own

@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 
 import ltdsim
 from ltdsim.errors import ScenarioError
-from ltdsim.lowering import rounded_profile
+from ltdsim.engine.lowering import rounded_profile
 
 from conftest import build, train_dict
 

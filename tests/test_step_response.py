@@ -1,4 +1,4 @@
-"""The simulated force step (ltdsim.experiments.force_step) against the closed form of a
+"""The simulated force step (ltdsim.analysis.experiments.force_step) against the closed form of a
 locomotive and one wagon joined by a linear spring-damper coupler."""
 
 import math
@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ltdsim.experiments import force_step, step_info
+from ltdsim.analysis.experiments import force_step, step_info
 
 from conftest import build, train_dict
 

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 from ltdsim.errors import ScenarioError
-from ltdsim.study import run_study
+from ltdsim.study.stages import run_study
 
 from conftest import PAPER
 

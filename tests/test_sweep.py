@@ -9,8 +9,8 @@ from numpy.testing import assert_allclose
 
 import ltdsim
 from ltdsim import ScenarioError
-from ltdsim import sweep as sw
-from ltdsim.phases import critical_couplers, phase_norms, traction_check
+from ltdsim.sweep import core as sw
+from ltdsim.analysis.phases import critical_couplers, phase_norms, traction_check
 
 from conftest import PAPER, ROOT
 
@@ -159,7 +159,7 @@ def test_traction_never_exceeds_adhesion_and_the_check_counts_slip_risk(lhhl):
 
 
 def test_amplitude_spectrum_reads_back_known_sines_and_parseval():
-    from ltdsim.spectra import amplitude_spectrum, band_stats
+    from ltdsim.analysis.spectra import amplitude_spectrum, band_stats
 
     dt, n = 1e-3, 10_000  # the study's 0.1 Hz resolution
     t = np.arange(n) * dt

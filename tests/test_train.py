@@ -151,7 +151,7 @@ def test_train_rolling_back_over_graded_curved_track_obeys_newton_as_a_whole(v0,
     pieces it passed (its resistances change sign with its speed): the sum of m a is at
     every record minus the resistances that the laws give on each vehicle's piece of
     track (the couplers' forces cancel; no traction, no brakes)."""
-    from ltdsim.lowering import merge_track
+    from ltdsim.engine.lowering import merge_track
     from ltdsim.physics import curve_resistance, davis_resistance, grade_resistance
 
     sc = ltdsim.load_scenario(ROOT / "scenarios" / "two-wagons-linear.toml").with_overrides({

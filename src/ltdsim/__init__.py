@@ -13,9 +13,9 @@ __version__ = "0.1.0"
 from ltdsim import _jitcache  # noqa: E402,F401  (must run before any numba function is defined)
 
 from ltdsim.errors import LtdsimError, ScenarioError, SimulationError  # noqa: E402
-from ltdsim.io import load_result, save_result  # noqa: E402
-from ltdsim.scenario import Scenario, load_scenario  # noqa: E402
-from ltdsim.simulate import simulate  # noqa: E402
+from ltdsim.results.io import load_result, save_result  # noqa: E402
+from ltdsim.scenario.model import Scenario, load_scenario  # noqa: E402
+from ltdsim.results.simulate import simulate  # noqa: E402
 
 __all__ = [
     "LtdsimError",

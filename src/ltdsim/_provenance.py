@@ -8,8 +8,9 @@ from pathlib import Path
 
 from ltdsim import __version__
 
-#: modules that only present results: editing them changes no computed number
-PRESENTATION = ("report.py", "cli.py")
+#: the packages and modules that only present results: editing them changes no computed
+#: number (paths relative to the package)
+PRESENTATION = ("cli/", "viz/", "study/report.py")
 
 
 @cache
@@ -19,7 +20,8 @@ def code_hash() -> str:
     here = Path(__file__).parent
     h = hashlib.sha256(__version__.encode())
     for path in sorted(here.rglob("*.py")):
-        if path.name not in PRESENTATION:
+        rel = path.relative_to(here).as_posix()
+        if not rel.startswith(PRESENTATION):
             h.update(str(path.relative_to(here)).encode())
             h.update(path.read_bytes())
     return h.hexdigest()[:16]

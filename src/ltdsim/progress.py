@@ -37,7 +37,7 @@ class Display:
 
     Use as a context manager; feed it from the library's callbacks:
 
-    * :meth:`compiling` is a :func:`ltdsim.warmup.warm_up` tick;
+    * :meth:`compiling` is a :func:`ltdsim.engine.warmup.warm_up` tick;
     * :meth:`bar` starts a counted task (simulated seconds, cases) and returns its
       ``update(done)`` callback;
     * :meth:`stage` reports a stage and a message (``ltdsim study``);
@@ -143,7 +143,7 @@ class Display:
 
     # ------------------------------------------------------------------ callbacks
     def compiling(self, elapsed: float, done: bool) -> None:
-        """Tick of :func:`ltdsim.warmup.warm_up`: a compile started, runs or ended."""
+        """Tick of :func:`ltdsim.engine.warmup.warm_up`: a compile started, runs or ended."""
         if self.live:
             prog = self._progress
             if self._compile_task is None:

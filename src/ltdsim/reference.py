@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ltdsim.lowering import rounded_profile
+from ltdsim.engine.lowering import rounded_profile
 from ltdsim.physics import (
     coupler_linear, coupler_simplified, curve_resistance, davis_resistance, grade_resistance,
     traction_limit,
 )
-from ltdsim.scenario import Scenario
+from ltdsim.scenario.model import Scenario
 
 #: the coupler models this reference covers
 MODELS = ("linear", "simplified")

@@ -7,11 +7,11 @@ curves; the exponential checks) are compiled at their first call rather than at 
 (see :mod:`ltdsim.physics._lazy`). All quantities are SI (m, s, kg, N, W).
 """
 
-from ltdsim.physics.brakes import brake_retardation, karwatzki
+from ltdsim.physics.air.brakes import brake_retardation, karwatzki
 from ltdsim.physics.control import pid_init, pid_step
-from ltdsim.physics.couplers import coupler_linear, coupler_simplified
+from ltdsim.physics.gears.couplers import coupler_linear, coupler_simplified
 from ltdsim.physics.resistance import curve_resistance, davis_resistance, grade_resistance
-from ltdsim.physics.traction import adhesion_limit, traction_limit
+from ltdsim.physics.drive.traction import adhesion_limit, traction_limit
 
 __all__ = [
     "adhesion_limit",

@@ -27,7 +27,7 @@ its arguments below 1/8 in the study's run (97-100 % below 1/32 in the 1 ms samp
 of its 270 s with either friction-wedge set), so it uses :func:`exp_neg_small` (a
 middle tier there only costs a branch), and takes the head alone for all its
 friction laws at once when every argument is below 1/32
-(:func:`ltdsim.physics.draftgear.wedge_curves`); the simplified coupler's
+(:func:`ltdsim.physics.gears.draftgear.wedge_curves`); the simplified coupler's
 ``|v| / v_c`` lies between 1/8 and 1 three times in four, so it uses
 :func:`exp_neg`. The tests compare both with NumPy's ``exp``.
 """

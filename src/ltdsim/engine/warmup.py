@@ -1,0 +1,141 @@
+"""Compile the kernels a piece of work needs before it starts, and say so while it happens.
+
+On a new machine (or after ltdsim's compiled sources change) numba compiles the kernels
+once and keeps them in its on-disk cache (see :mod:`ltdsim._jitcache`); later runs load
+them in well under a second. :func:`warm_up` does that compile or load up front:
+
+* the command line can show "compiling (first run only)" with the elapsed time instead
+  of sitting silent;
+* a sweep compiles once in the parent process, so its worker processes load the kernel
+  from the cache instead of each compiling the same kernel at the same time.
+
+A kernel is only as fast to load as its argument types allow: every distinct set of
+argument types is a separate compile, so the kernels are called here exactly as
+:func:`ltdsim.simulate` and the gear rig call them.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+
+#: ``tick(elapsed_s, done)``: called when a compile starts (0 s, False), every
+#: ``interval`` seconds while it runs, and once when it ends (total s, True)
+Tick = Callable[[float, bool], None]
+
+
+@dataclass(frozen=True, eq=False)
+class KernelCall:
+    """A compiled function and the arguments of a call that does (almost) no work."""
+
+    name: str
+    dispatcher: object
+    args: tuple
+
+    def signature(self) -> tuple:
+        """numba's argument types of the call (what a compile is specialised on)."""
+        return tuple(self.dispatcher.typeof_pyval(a) for a in self.args)
+
+    def ready(self) -> bool | None:
+        """True when the kernel for these argument types is in memory or in numba's
+        on-disk cache (a load, not a compile), False when it must be compiled, None
+        when numba's cache cannot be inspected."""
+        sig = self.signature()
+        disp = self.dispatcher
+        if sig in disp.overloads:
+            return True
+        try:  # numba's own cache lookup (numba.core.caching.Cache._load_overload)
+            from numba.core.caching import NullCache
+
+            cache = disp._cache
+            if isinstance(cache, NullCache):  # a function without cache=True
+                return False
+            key = cache._index_key(sig, disp.targetctx.codegen())
+            return key in cache._cache_file._load_index()
+        except Exception:  # noqa: BLE001 - a numba without these internals: unknown
+            return None
+
+    def __call__(self):
+        return self.dispatcher(*self.args)
+
+
+def scenario_kernels(scenarios: Iterable) -> list[KernelCall]:
+    """The kernel calls that simulating each of ``scenarios`` needs, one per distinct
+    kernel and argument types (a sweep of fixed-step cases needs one)."""
+    from ltdsim.engine.lowering import lower
+    from ltdsim.results.simulate import zero_step_call
+
+    calls, seen = [], set()
+    for sc in scenarios:
+        disp, args = zero_step_call(lower(sc))
+        call = KernelCall("adaptive kernel (bs23)" if disp.__name__ == "run_adaptive"
+                          else "fixed-step kernel", disp, args)
+        key = (disp.__name__, call.signature())
+        if key not in seen:
+            seen.add(key)
+            calls.append(call)
+    return calls
+
+
+def gear_rig_kernel() -> KernelCall:
+    """The gear rig (:func:`ltdsim.analysis.gears.drive_deflection`, used by the model reduction);
+    its argument types do not depend on the gear (the coupler model is a number)."""
+    import numpy as np
+
+    from ltdsim.analysis.gears import MODE_DEFLECTION, _lowered_gear, _rig, rig_args
+    from ltdsim.scenario.model import CouplerParams
+
+    any_gear = CouplerParams(model="simplified", slack=0.0, damping=1.0, k1=1.0, k2=1.0,
+                             k3=1.0, v_c=1.0)
+    model, cpl, ctab = _lowered_gear(any_gear)
+    t = np.array([0.0, 1e-4])
+    return KernelCall("gear rig", _rig, rig_args(model, cpl, ctab, MODE_DEFLECTION, t, t * 0.0,
+                                                 t * 0.0, 1.0, 0.0, 1e-4, "ode3"))
+
+
+def warm_up(calls: Iterable[KernelCall], tick: Tick | None = None,
+            interval: float = 1.0, load: bool = True) -> float:
+    """Compile (or load from the cache) every kernel of ``calls``; returns the seconds
+    spent compiling (0 when everything was in the cache).
+
+    With ``load=False`` a kernel already in numba's on-disk cache is left there (for a
+    process that only hands the work to others, such as a sweep's: its workers load
+    the kernels themselves, and loading them here too only delays their start).
+
+    ``tick(elapsed_s, done)`` reports a compile: once when it starts, every
+    ``interval`` seconds while it runs (from a helper thread: the compile itself runs
+    here, so Ctrl-C stops it) and once at the end. Loads from the cache take well under
+    a second and are not reported.
+    """
+    calls = list(calls)
+    todo = [c for c in calls if c.ready() is not True]
+    for c in calls if load else ():
+        if c not in todo:
+            c()  # load from the cache now, so the first case does not
+    if not todo:
+        return 0.0
+    t0 = time.perf_counter()
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.wait(interval):
+            tick(time.perf_counter() - t0, False)
+
+    thread = None
+    if tick is not None:
+        tick(0.0, False)
+        thread = threading.Thread(target=ticker, name="ltdsim-compile-ticker", daemon=True)
+        thread.start()
+    try:
+        for c in todo:
+            c()
+    finally:
+        stop.set()
+        if thread is not None:
+            thread.join()
+    elapsed = time.perf_counter() - t0
+    if tick is not None:
+        tick(elapsed, True)
+    return elapsed

@@ -1,0 +1,720 @@
+"""The valves of the fluid-dynamic air brake: the driver's brake valve and the control
+valve (distributor) of every braked vehicle.
+
+Both are written as right-hand sides of ordinary differential equations: the valve's
+volumes (reservoirs, cylinder, chambers) hold air whose pressure is a state, and every
+flow between two volumes, or from a volume to the atmosphere, passes an orifice and
+follows :func:`ltdsim.physics.air.pneumatics.orifice_flow` (compressible, choked and
+unchoked, linear very near equal pressures). Air is isothermal at the temperature ``T``
+(K) everywhere, so a volume ``V`` (m^3) at pressure ``p`` (Pa, absolute) holds the mass
+``p V / (R T)`` (kg) and its pressure changes at ``dp/dt = R T / V x (mass flow in)``.
+
+Valve positions are continuous states, never flags switched inside the right-hand side,
+so that every Runge-Kutta stage sees a right-hand side fixed by the states alone:
+
+* a **piston** position ``x`` in [-1, 1] (-1 release, 0 lap, +1 application) relaxes
+  with the time constant ``piston_time`` (s) towards the position its pressures ask for;
+  the openings of the valve seats are ``max(x, 0)`` (application) and ``max(-x, 0)``
+  (release, exhaust, charging). Openings are ramps of the pressure difference over a
+  band (Pa), so the right-hand side is continuous in the states.
+* the **emergency piston** position ``e`` in [0, 1] relaxes (``emergency_time``, s)
+  towards 1 when the quick-action chamber is more than ``trip`` (Pa) above the pipe,
+  towards 0 otherwise. The chamber is charged from the pipe through a choke: a slow
+  (service) reduction lets it follow; a fast (emergency) one does not, and the pressure
+  difference trips the piston. The difference is a measure of the pipe's rate of fall
+  (the sensing of the ABD/ABDX-class emergency portion, whose quick-action chamber is
+  charged and discharged through a choke): for a steady fall at ``r`` Pa/s it settles
+  where the choke passes the chamber's share, ``orifice_flow(p + lag, p) = V_qa r /
+  (R T)`` (:func:`quick_action_lag`), rising about as ``r^2``; a drop shorter than the
+  chamber's time constant leaves a lag near its own depth. So the piston trips on a
+  fall that is both fast and deep: an emergency (tens of bar/s behind the vents) within
+  some 0.05 s, while a service front, steep at the closed rear of a long train but
+  only a few tenths of a bar deep, does not. Once open, the vent holds the pipe at the atmosphere, so
+  the difference stays and the valve stays tripped (the latch) until the chamber has
+  blown down through its vent choke; then the piston closes and the pipe can be
+  recharged. The latch is the chamber's pressure, not a flag.
+* the **governor** of the main reservoir's compressor (``g`` in [0, 1]) has the same
+  hysteresis: on below the cut-in pressure, off above the cut-out, held in between.
+
+Two control-valve families share one state layout (:data:`CV_STATES`) and one parameter
+row (:data:`CV_PARAMS`); the row's ``family`` picks the law:
+
+* **UIC** (graduated application and release; three-pressure distributor): a control
+  reservoir charged from the pipe holds the reference pressure while the valve is
+  released; the cylinder pressure asked for is ``max_cylinder (drop - threshold) /
+  (full_drop - threshold)``, capped at ``max_cylinder`` (Pa, gauge), where ``drop`` is
+  the pipe's pressure below the control reservoir. The piston compares that with the
+  cylinder: it admits auxiliary-reservoir air when the cylinder is low, exhausts the
+  cylinder when it is high, laps when equal, so every pipe increase steps the cylinder
+  down (graduated release). The control reservoir is connected to the pipe through its
+  choke only while the cylinder is below ``control_cutoff`` (released valve); a slow
+  pipe leak then bleeds it along (the UIC insensitivity), a driver's reduction outruns
+  the choke and applies the brake. The auxiliary reservoir is charged from the pipe
+  through a check valve and a choke.
+* **AAR** (direct release; triple-valve behaviour): the piston compares the auxiliary
+  reservoir with the pipe: application when the reservoir is ``threshold`` above the
+  pipe (the threshold shrinks to 0 as the piston travels to application: the slide
+  valve's friction, then the lighter graduating valve), lap when they are equal again,
+  release when the pipe is ``release_threshold`` above the reservoir. In between the
+  piston stays where it is (its friction): a released valve stays released, an applying
+  one laps. In release the cylinder exhausts fully and the auxiliary and emergency
+  reservoirs recharge. In emergency the emergency reservoir joins the auxiliary one in
+  the cylinder.
+
+Both families have quick service (while the piston applies and the cylinder is below
+``quick_service_limit``, pipe air flows into a quick-service bulb that bleeds to the
+atmosphere, and into the cylinder: a local draw that speeds the service wave) and the
+emergency vent described above (a local vent of the pipe to the atmosphere).
+
+The driver's brake valve has a main reservoir (optionally fed by a compressor), an
+equalising reservoir whose pressure the handle sets through a regulating valve
+(release: charge to the regulated pressure; service: reduce by ``reduction`` Pa through
+the service choke; lap: hold; emergency: exhaust) and a relay valve that makes the pipe
+follow the equalising reservoir (feed from the main reservoir when the pipe is below,
+exhaust when above). Both are proportional valves: their openings are ramps of their
+pressure differences over their bands, fast compared to the reservoirs they serve, so
+they are algebraic (no state). The emergency position also opens a large vent whose
+position is a state.
+
+Pressures inside are absolute, Pa; parameter rows hold gauge pressures (Pa, gauge)
+where the docs say so, and orifices as discharge coefficient times area (m^2).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from importlib import resources
+
+import numpy as np
+from numba import njit
+
+from ltdsim.physics.air.pneumatics import orifice_conductance, orifice_flow
+
+# --- handle codes of the driver's valve -------------------------------------------------
+H_RELEASE = 0
+H_SERVICE = 1
+H_EMERGENCY = 2
+H_LAP = 3
+
+# --- control valve ----------------------------------------------------------------------
+FAMILY_UIC = 0
+FAMILY_AAR = 1
+
+CV_STATES = (
+    "auxiliary",            # auxiliary reservoir, Pa abs
+    "cylinder",             # brake cylinder, Pa abs
+    "control",              # control reservoir (UIC; AAR: unused, constant), Pa abs
+    "emergency_reservoir",  # emergency reservoir (AAR; UIC: unused, constant), Pa abs
+    "quick_service",        # quick-service bulb, Pa abs
+    "quick_action",         # quick-action chamber of the emergency portion, Pa abs
+    "piston",               # service piston position, -1 release .. 0 lap .. +1 apply, -
+    "emergency_piston",     # emergency piston position, 0 closed .. 1 tripped, -
+)
+N_CV = len(CV_STATES)
+(S_AUX, S_CYL, S_CTRL, S_ER, S_QS, S_QA, S_PISTON, S_EM) = range(N_CV)
+
+CV_PARAMS = (
+    "family",                  # 0 UIC (graduated release), 1 AAR (direct release), -
+    "auxiliary_volume",        # m^3
+    "cylinder_volume",         # m^3 (cylinder at working stroke with its piping)
+    "control_volume",          # m^3 (UIC control reservoir; 0 for AAR)
+    "emergency_volume",        # m^3 (AAR emergency reservoir; 0 for UIC)
+    "quick_service_volume",    # m^3 (0: no bulb)
+    "quick_action_volume",     # m^3 (0: no emergency portion)
+    "charge_cda",              # pipe -> auxiliary, m^2
+    "control_cda",             # pipe <-> control reservoir (UIC), m^2
+    "emergency_charge_cda",    # pipe -> emergency reservoir (AAR), m^2
+    "apply_cda",               # auxiliary -> cylinder, m^2
+    "release_cda",             # cylinder -> atmosphere, m^2
+    "quick_service_cda",       # pipe -> quick-service bulb, m^2
+    "quick_service_vent_cda",  # bulb -> atmosphere, m^2
+    "quick_service_cylinder_cda",  # pipe -> cylinder during quick service, m^2
+    "quick_action_cda",        # pipe <-> quick-action chamber (the choke), m^2
+    "quick_action_vent_cda",   # quick-action chamber -> atmosphere when tripped, m^2
+    "vent_cda",                # pipe -> atmosphere when tripped (emergency vent), m^2
+    "emergency_apply_cda",     # emergency reservoir -> cylinder when tripped, m^2
+    "max_cylinder",            # UIC: cylinder pressure at full service and above, Pa gauge
+    "full_drop",               # UIC: pipe drop below the control reservoir giving it, Pa
+    "threshold",               # UIC: drop where application begins; AAR: aux above pipe, Pa
+    "release_threshold",       # AAR: pipe above aux that releases, Pa
+    "band",                    # proportional band of the piston, Pa
+    "piston_time",             # s
+    "quick_service_limit",     # cylinder pressure ending quick service, Pa gauge
+    "trip",                    # quick-action chamber above pipe that trips emergency, Pa
+    "trip_band",               # Pa
+    "emergency_time",          # s
+    "control_cutoff",          # UIC: cylinder pressure closing the control-reservoir choke, Pa gauge
+)
+N_CV_PARAMS = len(CV_PARAMS)
+_CV = {name: i for i, name in enumerate(CV_PARAMS)}
+(P_FAMILY, P_VAUX, P_VCYL, P_VCTRL, P_VER, P_VQS, P_VQA, P_CHARGE, P_CTRL, P_ERCHARGE,
+ P_APPLY, P_RELEASE, P_QS, P_QSVENT, P_QSCYL, P_QA, P_QAVENT, P_VENT, P_EMAPPLY,
+ P_MAXCYL, P_FULLDROP, P_THRESH, P_RELTHRESH, P_BAND, P_TPISTON, P_QSLIMIT, P_TRIP,
+ P_TRIPBAND, P_TEM, P_CUTOFF) = range(N_CV_PARAMS)
+
+# --- driver's brake valve ---------------------------------------------------------------
+DV_STATES = (
+    "main_reservoir",   # Pa abs
+    "equalising",       # equalising reservoir, Pa abs
+    "vent",             # emergency vent position, 0 closed .. 1 open, -
+    "governor",         # compressor governor, 0 off .. 1 on, -
+)
+N_DV = len(DV_STATES)
+(D_MR, D_ER, D_VENT, D_GOV) = range(N_DV)
+
+DV_PARAMS = (
+    "main_volume",            # m^3
+    "equalising_volume",      # m^3
+    "regulated",              # pipe pressure in release, Pa gauge
+    "full_reduction",         # full-service reduction, Pa
+    "minimum_reduction",      # minimum (first) service reduction, Pa
+    "charge_cda",             # main -> equalising reservoir (regulating valve), m^2
+    "service_cda",            # equalising reservoir -> atmosphere in service, m^2
+    "emergency_cda",          # equalising reservoir -> atmosphere in emergency, m^2
+    "feed_cda",               # main reservoir -> pipe (relay supply), m^2
+    "exhaust_cda",            # pipe -> atmosphere (relay exhaust), m^2
+    "vent_cda",               # pipe -> atmosphere in emergency, m^2
+    "regulating_band",        # Pa
+    "relay_band",             # Pa
+    "vent_time",              # s
+    "compressor_flow",        # kg/s when running (0: none)
+    "cut_in",                 # governor starts the compressor below, Pa gauge
+    "cut_out",                # and stops it above, Pa gauge
+    "governor_band",          # Pa
+    "governor_time",          # s
+    "main_initial",           # main reservoir pressure at the start, Pa gauge
+)
+N_DV_PARAMS = len(DV_PARAMS)
+_DV = {name: i for i, name in enumerate(DV_PARAMS)}
+(Q_VMR, Q_VER, Q_REG, Q_FULL, Q_MIN, Q_CHARGE, Q_SERVICE, Q_EMERG, Q_FEED, Q_EXH,
+ Q_VENT, Q_REGBAND, Q_RELBAND, Q_TVENT, Q_COMP, Q_CUTIN, Q_CUTOUT, Q_GOVBAND,
+ Q_TGOV, Q_MRINIT) = range(N_DV_PARAMS)
+
+
+@njit(cache=True, forceinline=True)
+def _ramp(u):
+    """0 below 0, 1 above 1, linear in between, -."""
+    return min(max(u, 0.0), 1.0)
+
+
+@njit(cache=True, forceinline=True)
+def _through(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
+    """``opening`` (0-1) times the orifice flow from ``p1`` to ``p2``, kg/s; the orifice
+    law is not evaluated at all while the seat is shut (most seats, most of the time)."""
+    if opening <= 0.0:
+        return 0.0
+    return opening * orifice_flow(p1, p2, cda, gamma, r_gas, temperature, r_lin)
+
+
+@njit(cache=True, forceinline=True)
+def _checked(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
+    """As :func:`_through` behind a check valve: flow from ``p1`` to ``p2`` only, kg/s."""
+    if opening <= 0.0 or p1 <= p2:
+        return 0.0
+    return opening * orifice_flow(p1, p2, cda, gamma, r_gas, temperature, r_lin)
+
+
+@njit(cache=True, forceinline=True)
+def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds):
+    """Rates of one control valve's states and its exchange with the pipe.
+
+    Parameters
+    ----------
+    p_bp : float
+        Brake-pipe pressure at the valve, Pa abs.
+    s : float64 array (N_CV)
+        The valve's states, :data:`CV_STATES` (pressures Pa abs, positions -).
+    par : float64 array (N_CV_PARAMS)
+        Its parameter row, :data:`CV_PARAMS` (see :func:`control_valve_row`).
+    gamma, r_gas, temperature, atmosphere, r_lin : float
+        Ratio of specific heats (-), gas constant J/(kg K), temperature K, atmosphere
+        Pa abs, the orifice law's linear-region ratio (-).
+    ds : float64 array (N_CV)
+        Written: the states' rates (Pa/s, 1/s).
+
+    Returns
+    -------
+    (draw, exhaust) : (float, float)
+        Mass flow drawn from the pipe (kg/s; includes the emergency vent) and mass flow
+        to the atmosphere (kg/s). The valve's air mass changes at ``draw - exhaust``.
+    """
+    rt = r_gas * temperature
+    pa = s[S_AUX]
+    pc = s[S_CYL]
+    pr = s[S_CTRL]
+    pe = s[S_ER]
+    pq = s[S_QS]
+    pk = s[S_QA]
+    x = min(max(s[S_PISTON], -1.0), 1.0)
+    e = min(max(s[S_EM], 0.0), 1.0)
+    pcg = pc - atmosphere
+    band = par[P_BAND]
+
+    # emergency portion: quick-action chamber against the pipe
+    f_qa = 0.0
+    f_qa_vent = 0.0
+    f_vent = 0.0
+    if par[P_VQA] > 0.0:
+        f_qa = orifice_flow(p_bp, pk, par[P_QA], gamma, r_gas, temperature, r_lin)
+        f_qa_vent = _through(e, pk, atmosphere, par[P_QAVENT], gamma, r_gas,
+                             temperature, r_lin)
+        f_vent = _through(e, p_bp, atmosphere, par[P_VENT], gamma, r_gas, temperature,
+                          r_lin)
+        e_target = _ramp((pk - p_bp - par[P_TRIP]) / par[P_TRIPBAND])
+        ds[S_EM] = (e_target - s[S_EM]) / par[P_TEM]
+        ds[S_QA] = rt / par[P_VQA] * (f_qa - f_qa_vent)
+    else:
+        ds[S_EM] = -s[S_EM] / par[P_TEM]
+        ds[S_QA] = 0.0
+
+    f_ctrl = 0.0
+    f_er = 0.0
+    f_em = 0.0
+    if par[P_FAMILY] == FAMILY_UIC:
+        # three-pressure law: the cylinder pressure the control reservoir asks for
+        span = par[P_FULLDROP] - par[P_THRESH]
+        target = par[P_MAXCYL] * min(max((pr - p_bp - par[P_THRESH]) / span, 0.0), 1.0)
+        x_target = min(max((target - pcg) / band, -1.0), 1.0)
+        # the auxiliary reservoir charges through a check valve, always
+        f_charge = _checked(1.0, p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
+                            r_lin)
+        if par[P_VCTRL] > 0.0:
+            f_ctrl = _through(_ramp(1.0 - pcg / par[P_CUTOFF]), p_bp, pr, par[P_CTRL],
+                              gamma, r_gas, temperature, r_lin)
+            ds[S_CTRL] = rt / par[P_VCTRL] * f_ctrl
+        else:
+            ds[S_CTRL] = 0.0
+    else:
+        # triple valve: auxiliary reservoir against the pipe, with piston friction
+        d = pa - p_bp
+        # the slide valve needs `threshold` to leave release or lap; once applying, the
+        # lighter graduating valve laps as the reservoir falls to the pipe (with `band`
+        # under `threshold` the piston snaps both ways: a physical hysteresis)
+        pull_apply = _ramp((d - par[P_THRESH] * (1.0 - max(x, 0.0))) / band)
+        pull_release = _ramp((-d - par[P_RELTHRESH]) / band)
+        x_target = pull_apply - pull_release + (1.0 - pull_apply - pull_release) * min(x, 0.0)
+        f_charge = _through(-x, p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
+                            r_lin)
+        ds[S_CTRL] = 0.0
+    if par[P_VER] > 0.0:
+        f_er = _checked(-x, p_bp, pe, par[P_ERCHARGE], gamma, r_gas, temperature, r_lin)
+        f_em = _checked(e, pe, pc, par[P_EMAPPLY], gamma, r_gas, temperature, r_lin)
+        ds[S_ER] = rt / par[P_VER] * (f_er - f_em)
+    else:
+        ds[S_ER] = 0.0
+    ds[S_PISTON] = (x_target - s[S_PISTON]) / par[P_TPISTON]
+
+    opening = max(x, 0.0)
+    f_apply = _checked(opening, pa, pc, par[P_APPLY], gamma, r_gas, temperature, r_lin)
+    f_release = _through(-x, pc, atmosphere, par[P_RELEASE], gamma, r_gas, temperature,
+                         r_lin)
+    # quick service: while applying and the cylinder is still low
+    qs = opening * _ramp(1.0 - pcg / par[P_QSLIMIT])
+    f_qs_cyl = _checked(qs, p_bp, pc, par[P_QSCYL], gamma, r_gas, temperature, r_lin)
+    f_qs = 0.0
+    f_qs_vent = 0.0
+    if par[P_VQS] > 0.0:
+        f_qs = _checked(qs, p_bp, pq, par[P_QS], gamma, r_gas, temperature, r_lin)
+        f_qs_vent = orifice_flow(pq, atmosphere, par[P_QSVENT], gamma, r_gas, temperature,
+                                 r_lin)
+        ds[S_QS] = rt / par[P_VQS] * (f_qs - f_qs_vent)
+    else:
+        ds[S_QS] = 0.0
+
+    ds[S_AUX] = rt / par[P_VAUX] * (f_charge - f_apply)
+    ds[S_CYL] = rt / par[P_VCYL] * (f_apply + f_em + f_qs_cyl - f_release)
+    draw = f_charge + f_ctrl + f_er + f_qs + f_qs_cyl + f_qa + f_vent
+    exhaust = f_release + f_qs_vent + f_qa_vent + f_vent
+    return draw, exhaust
+
+
+@njit(cache=True, forceinline=True)
+def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atmosphere,
+                 r_lin, ds):
+    """Rates of one driver's brake valve's states and its exchange with the pipe.
+
+    Parameters
+    ----------
+    p_bp : float
+        Brake-pipe pressure where the valve feeds it, Pa abs.
+    s : float64 array (N_DV)
+        The valve's states, :data:`DV_STATES`.
+    par : float64 array (N_DV_PARAMS)
+        Its parameter row, :data:`DV_PARAMS` (see :func:`driver_valve_row`).
+    handle : int
+        :data:`H_RELEASE` (charge the pipe to the regulated pressure),
+        :data:`H_SERVICE` (``reduction`` Pa below it), :data:`H_EMERGENCY` (vent),
+        :data:`H_LAP` (hold the equalising reservoir; the relay keeps the pipe at it).
+    reduction : float
+        Service reduction below the regulated pressure, Pa (used in service only).
+    gamma, r_gas, temperature, atmosphere, r_lin : float
+        As in :func:`control_valve`.
+    ds : float64 array (N_DV)
+        Written: the states' rates.
+
+    Returns
+    -------
+    (into_pipe, exhaust) : (float, float)
+        Net mass flow into the pipe (kg/s; feed minus relay exhaust minus vent) and
+        mass flow to the atmosphere (kg/s). The valve's air mass changes at
+        ``compressor - into_pipe - exhaust`` (see :func:`driver_valve_compressor`).
+    """
+    rt = r_gas * temperature
+    pm = s[D_MR]
+    pe = s[D_ER]
+    v = min(max(s[D_VENT], 0.0), 1.0)
+    g = min(max(s[D_GOV], 0.0), 1.0)
+
+    # regulating valve of the equalising reservoir
+    f_erc = 0.0
+    f_ere = 0.0
+    v_target = 0.0
+    if handle != H_LAP:
+        if handle == H_RELEASE:
+            target = atmosphere + par[Q_REG]
+            cda = par[Q_SERVICE]
+        elif handle == H_SERVICE:
+            target = max(atmosphere + par[Q_REG] - reduction, atmosphere)
+            cda = par[Q_SERVICE]
+        else:
+            target = atmosphere
+            cda = par[Q_EMERG]
+            v_target = 1.0
+        err = (target - pe) / par[Q_REGBAND]
+        f_erc = _checked(_ramp(err), pm, pe, par[Q_CHARGE], gamma, r_gas, temperature,
+                         r_lin)
+        f_ere = _through(_ramp(-err), pe, atmosphere, cda, gamma, r_gas, temperature,
+                         r_lin)
+    # relay valve: the pipe follows the equalising reservoir
+    z = (pe - p_bp) / par[Q_RELBAND]
+    feed = _checked(_ramp(z), pm, p_bp, par[Q_FEED], gamma, r_gas, temperature, r_lin)
+    rex = _through(_ramp(-z), p_bp, atmosphere, par[Q_EXH], gamma, r_gas, temperature,
+                   r_lin)
+    f_vent = _through(v, p_bp, atmosphere, par[Q_VENT], gamma, r_gas, temperature, r_lin)
+    ds[D_VENT] = (v_target - s[D_VENT]) / par[Q_TVENT]
+    # compressor governor with hysteresis
+    comp = 0.0
+    if par[Q_COMP] > 0.0:
+        pmg = pm - atmosphere
+        pull_on = _ramp((par[Q_CUTIN] - pmg) / par[Q_GOVBAND])
+        pull_off = _ramp((pmg - par[Q_CUTOUT]) / par[Q_GOVBAND])
+        g_target = pull_on + (1.0 - pull_on - pull_off) * g
+        ds[D_GOV] = (g_target - s[D_GOV]) / par[Q_TGOV]
+        comp = g * par[Q_COMP]
+    else:
+        ds[D_GOV] = 0.0
+    ds[D_MR] = rt / par[Q_VMR] * (comp - f_erc - feed)
+    ds[D_ER] = rt / par[Q_VER] * (f_erc - f_ere)
+    return feed - rex - f_vent, f_ere + rex + f_vent
+
+
+@njit(cache=True, forceinline=True)
+def driver_valve_compressor(s, par):
+    """Mass flow the compressor delivers into the main reservoir, kg/s (the air the
+    train gains; add it to the conservation balance)."""
+    if par[Q_COMP] <= 0.0:
+        return 0.0
+    return min(max(s[D_GOV], 0.0), 1.0) * par[Q_COMP]
+
+
+@njit(cache=True)
+def control_valve_mass(s, par, r_gas, temperature):
+    """Air mass in one control valve's volumes, kg."""
+    return (s[S_AUX] * par[P_VAUX] + s[S_CYL] * par[P_VCYL] + s[S_CTRL] * par[P_VCTRL]
+            + s[S_ER] * par[P_VER] + s[S_QS] * par[P_VQS] + s[S_QA] * par[P_VQA]
+            ) / (r_gas * temperature)
+
+
+@njit(cache=True)
+def driver_valve_mass(s, par, r_gas, temperature):
+    """Air mass in one driver's valve's reservoirs, kg."""
+    return (s[D_MR] * par[Q_VMR] + s[D_ER] * par[Q_VER]) / (r_gas * temperature)
+
+
+# --- parameter rows from presets ----------------------------------------------------------
+
+# preset keys given as an effective diameter (m) -> row entry (Cd x area, m^2)
+_CV_ORIFICES = {
+    "charge_diameter": "charge_cda",
+    "control_diameter": "control_cda",
+    "emergency_charge_diameter": "emergency_charge_cda",
+    "apply_diameter": "apply_cda",
+    "release_diameter": "release_cda",
+    "quick_service_diameter": "quick_service_cda",
+    "quick_service_vent_diameter": "quick_service_vent_cda",
+    "quick_service_cylinder_diameter": "quick_service_cylinder_cda",
+    "quick_action_diameter": "quick_action_cda",
+    "quick_action_vent_diameter": "quick_action_vent_cda",
+    "vent_diameter": "vent_cda",
+    "emergency_apply_diameter": "emergency_apply_cda",
+}
+_DV_ORIFICES = {
+    "charge_diameter": "charge_cda",
+    "service_diameter": "service_cda",
+    "emergency_diameter": "emergency_cda",
+    "feed_diameter": "feed_cda",
+    "exhaust_diameter": "exhaust_cda",
+    "vent_diameter": "vent_cda",
+}
+_POSITIVE_CV = ("auxiliary_volume", "cylinder_volume", "band", "piston_time",
+                "quick_service_limit", "trip_band", "emergency_time", "apply_cda",
+                "release_cda", "charge_cda")
+_POSITIVE_DV = ("main_volume", "equalising_volume", "regulated", "full_reduction",
+                "regulating_band", "relay_band", "vent_time", "feed_cda", "service_cda",
+                "emergency_cda", "charge_cda", "exhaust_cda", "vent_cda")
+
+
+def _row(table: dict, names: tuple, orifices: dict, positive: tuple, what: str,
+         extra: dict) -> np.ndarray:
+    """A float row in the order ``names`` from a preset table (orifice diameters turned
+    into Cd x area with the table's ``discharge_coefficient``)."""
+    if not isinstance(table, dict):
+        raise ValueError(f"{what}: expected a table of keys")  # noqa: TRY004
+    allowed = set(names) | set(orifices) | {"discharge_coefficient"} | set(extra)
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise ValueError(f"{what}: unknown key {unknown[0]!r}; allowed: "
+                         f"{', '.join(sorted(allowed))}")
+    cd = float(table.get("discharge_coefficient", 0.8))
+    if not 0.0 < cd <= 1.0:
+        raise ValueError(f"{what}.discharge_coefficient: {cd} outside (0, 1]")
+    values = dict(extra)
+    for key, val in table.items():
+        if key == "discharge_coefficient":
+            continue
+        if isinstance(val, str):
+            values[key] = val
+            continue
+        try:
+            val = float(val)
+        except (TypeError, ValueError):
+            raise ValueError(f"{what}.{key}: expected a number, got {val!r}") from None
+        if not math.isfinite(val) or val < 0.0:
+            raise ValueError(f"{what}.{key}: {val} must be a finite number >= 0")
+        if key in orifices:
+            values[orifices[key]] = cd * math.pi * val * val / 4.0
+        else:
+            values[key] = val
+    row = np.zeros(len(names))
+    for i, name in enumerate(names):
+        if name in values and not isinstance(values[name], str):
+            row[i] = values[name]
+    for name in positive:
+        if row[names.index(name)] <= 0.0:
+            key = name.replace("_cda", "_diameter")
+            raise ValueError(f"{what}.{key}: must be given and > 0")
+    return row
+
+
+def control_valve_row(preset: dict) -> np.ndarray:
+    """The control-valve parameter row (:data:`CV_PARAMS`, float64) from a preset's
+    ``[control_valve]`` table: volumes m^3, orifices as effective diameters m (with one
+    ``discharge_coefficient``), pressures Pa gauge, times s, ``family = "uic" | "aar"``.
+    Raises ``ValueError`` (one line) on a missing, unknown or out-of-range key."""
+    family = preset.get("family") if isinstance(preset, dict) else None
+    if family not in ("uic", "aar"):
+        raise ValueError(f"control_valve.family: {family!r}; allowed: 'uic', 'aar'")
+    row = _row(preset, CV_PARAMS, _CV_ORIFICES, _POSITIVE_CV, "control_valve", {})
+    row[P_FAMILY] = FAMILY_UIC if family == "uic" else FAMILY_AAR
+    if family == "uic":
+        for key in ("control_volume", "control_cda", "max_cylinder", "full_drop",
+                    "control_cutoff"):
+            if row[_CV[key]] <= 0.0:
+                raise ValueError(f"control_valve: {key.replace('_cda', '_diameter')} "
+                                 "must be given and > 0 for family 'uic'")
+        if row[P_FULLDROP] <= row[P_THRESH]:
+            raise ValueError("control_valve.full_drop must exceed control_valve.threshold")
+    else:
+        if row[P_RELTHRESH] <= 0.0 or row[P_THRESH] <= 0.0:
+            raise ValueError("control_valve: threshold and release_threshold must be "
+                             "given and > 0 for family 'aar'")
+    if row[P_VQA] > 0.0:
+        for key in ("quick_action_cda", "trip"):
+            if row[_CV[key]] <= 0.0:
+                raise ValueError(f"control_valve: {key.replace('_cda', '_diameter')} must "
+                                 "be given and > 0 with a quick_action_volume")
+    # an orifice into a volume that is not there is closed
+    for vol, cdas in ((P_VCTRL, (P_CTRL,)), (P_VER, (P_ERCHARGE, P_EMAPPLY)),
+                      (P_VQS, (P_QS, P_QSVENT)), (P_VQA, (P_QA, P_QAVENT, P_VENT))):
+        if row[vol] <= 0.0:
+            for c in cdas:
+                row[c] = 0.0
+    return row
+
+
+def driver_valve_row(preset: dict) -> np.ndarray:
+    """The driver's-valve parameter row (:data:`DV_PARAMS`, float64) from a preset's
+    ``[driver_valve]`` table (units as in :func:`control_valve_row`)."""
+    row = _row(preset, DV_PARAMS, _DV_ORIFICES, _POSITIVE_DV, "driver_valve", {})
+    if row[Q_FULL] >= row[Q_REG] or row[Q_MIN] > row[Q_FULL]:
+        raise ValueError("driver_valve: need minimum_reduction <= full_reduction < regulated")
+    if row[Q_COMP] > 0.0:
+        if not 0.0 < row[Q_CUTIN] < row[Q_CUTOUT]:
+            raise ValueError("driver_valve: need 0 < cut_in < cut_out with a compressor")
+        if row[Q_GOVBAND] <= 0.0 or row[Q_TGOV] <= 0.0:
+            raise ValueError("driver_valve: governor_band and governor_time must be > 0 "
+                             "with a compressor")
+    if row[Q_MRINIT] <= row[Q_REG]:
+        raise ValueError("driver_valve.main_initial must exceed driver_valve.regulated")
+    return row
+
+
+def control_valve_init(p_bp_abs: float, par: np.ndarray,
+                       atmosphere: float = 101325.0) -> np.ndarray:
+    """States (:data:`CV_STATES`) of a control valve charged to the pipe pressure
+    ``p_bp_abs`` (Pa abs) and released: reservoirs and chambers at the pipe pressure,
+    cylinder and quick-service bulb at ``atmosphere`` (Pa abs), piston in release (-1),
+    emergency piston closed (0). Unused volumes (zero in ``par``) hold no air."""
+    s = np.empty(N_CV)
+    s[S_AUX] = s[S_CTRL] = s[S_ER] = s[S_QA] = p_bp_abs
+    s[S_CYL] = s[S_QS] = atmosphere
+    s[S_PISTON] = -1.0
+    s[S_EM] = 0.0
+    return s
+
+
+def driver_valve_init(p_bp_abs: float, par: np.ndarray,
+                      atmosphere: float = 101325.0) -> np.ndarray:
+    """States (:data:`DV_STATES`) of a driver's valve in release with the pipe charged
+    to ``p_bp_abs`` (Pa abs): main reservoir at ``main_initial``, equalising reservoir
+    at the pipe pressure, vent closed, compressor governor off."""
+    s = np.empty(N_DV)
+    s[D_MR] = atmosphere + par[Q_MRINIT]
+    s[D_ER] = p_bp_abs
+    s[D_VENT] = 0.0
+    s[D_GOV] = 0.0
+    return s
+
+
+def handle_command(name: str, par: np.ndarray) -> tuple[int, float]:
+    """The handle code and reduction (Pa) of a handle position named ``name``
+    ("release", "minimum", "full", "emergency", "lap") for a driver's valve row."""
+    table = {"release": (H_RELEASE, 0.0), "minimum": (H_SERVICE, float(par[Q_MIN])),
+             "full": (H_SERVICE, float(par[Q_FULL])), "emergency": (H_EMERGENCY, 0.0),
+             "lap": (H_LAP, 0.0)}
+    if name not in table:
+        raise ValueError(f"handle {name!r}; allowed: {', '.join(table)}")
+    return table[name]
+
+
+def quick_action_lag(par: np.ndarray, rate: float, p_abs: float, gamma: float = 1.4,
+                     r_gas: float = 287.05, temperature: float = 293.15,
+                     r_lin: float = 0.995) -> float:
+    """Steady lag (Pa) of the quick-action chamber behind a pipe falling steadily at
+    ``rate`` (Pa/s) through the pressure ``p_abs`` (Pa abs): the difference at which the
+    chamber's choke passes the air that keeps the chamber falling with the pipe,
+    ``orifice_flow(p_abs + lag, p_abs) = V_qa rate / (R T)``; ``inf`` if the choke
+    cannot pass that flow from any chamber pressure below twice ``p_abs`` (the pipe is
+    falling faster than the chamber can follow: it trips after the pipe has fallen about
+    ``trip``). The emergency piston trips where the lag exceeds ``trip``; the rate at
+    which the steady lag equals ``trip`` is the preset's emergency rate."""
+    from scipy.optimize import brentq
+
+    v, cda = par[P_VQA], par[P_QA]
+    if v <= 0.0 or cda <= 0.0 or rate <= 0.0:
+        return 0.0 if rate <= 0.0 else math.inf
+    need = v * rate / (r_gas * temperature)
+
+    def excess(lag):
+        return orifice_flow(p_abs + lag, p_abs, cda, gamma, r_gas, temperature,
+                            r_lin) - need
+
+    if excess(p_abs) < 0.0:
+        return math.inf
+    return float(brentq(excess, 0.0, p_abs, xtol=1e-3))
+
+
+# --- the fastest rates, for the step limit ------------------------------------------------
+
+def _g(cda, gamma, r_gas, temperature, r_lin):
+    return orifice_conductance(cda, gamma, r_gas, temperature, r_lin)
+
+
+def _choked(cda, p_up, gamma, r_gas, temperature):
+    """Choked mass flow through ``cda`` from ``p_up``, kg/s (the most the orifice passes
+    at that upstream pressure)."""
+    return (cda * p_up * math.sqrt(gamma / (r_gas * temperature))
+            * (2.0 / (gamma + 1.0)) ** ((gamma + 1.0) / (2.0 * (gamma - 1.0))))
+
+
+def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
+                   gamma: float = 1.4, r_gas: float = 287.05, temperature: float = 293.15,
+                   r_lin: float = 0.995) -> float:
+    """Fastest rate, 1/s, of a valve's linearised dynamics (its volumes through its
+    orifices near equal pressures, its relaxation times, the proportional loops of its
+    pistons), for the explicit integrator's step limit.
+
+    ``kind`` is "control" (a :data:`CV_PARAMS` row) or "driver" (:data:`DV_PARAMS`);
+    ``cell_volume`` (m^3) is the pipe cell the valve connects to; ``p_max`` (Pa abs) the
+    highest pressure in the system (for the flow a fully open valve passes). An orifice
+    with conductance ``G`` between volumes ``V1`` and ``V2`` equalises at the rate
+    ``R T G (1/V1 + 1/V2)``; a proportional valve passing at most ``F`` kg/s over the
+    band ``b`` Pa into ``V`` closes its loop at ``R T F / (V b)``.
+    """
+    rt = r_gas * temperature
+
+    def pair(cda, v1, v2):
+        if cda <= 0.0:
+            return 0.0
+        inv = (1.0 / v1 if v1 > 0 else 0.0) + (1.0 / v2 if v2 > 0 else 0.0)
+        return rt * _g(cda, gamma, r_gas, temperature, r_lin) * inv
+
+    atmos = 0.0  # the atmosphere, an infinite volume: it adds 1/V = 0
+    rates = []
+    if kind == "control":
+        va, vc, vr, ve = par[P_VAUX], par[P_VCYL], par[P_VCTRL], par[P_VER]
+        vq, vk = par[P_VQS], par[P_VQA]
+        rates += [pair(par[P_CHARGE], cell_volume, va), pair(par[P_CTRL], cell_volume, vr),
+                  pair(par[P_ERCHARGE], cell_volume, ve), pair(par[P_APPLY], va, vc),
+                  pair(par[P_RELEASE], vc, atmos), pair(par[P_QS], cell_volume, vq),
+                  pair(par[P_QSVENT], vq, atmos), pair(par[P_QSCYL], cell_volume, vc),
+                  pair(par[P_QA], cell_volume, vk), pair(par[P_QAVENT], vk, atmos),
+                  pair(par[P_VENT], cell_volume, atmos), pair(par[P_EMAPPLY], ve, vc),
+                  1.0 / par[P_TPISTON], 1.0 / par[P_TEM]]
+        f_full = _choked(max(par[P_APPLY], par[P_RELEASE]), p_max, gamma, r_gas, temperature)
+        if par[P_FAMILY] == FAMILY_UIC:
+            rates.append(rt * f_full / (vc * par[P_BAND]))
+        else:
+            rates.append(rt * f_full / (va * par[P_BAND]))
+    elif kind == "driver":
+        vm, ver = par[Q_VMR], par[Q_VER]
+        rates += [pair(par[Q_CHARGE], vm, ver), pair(par[Q_SERVICE], ver, atmos),
+                  pair(par[Q_EMERG], ver, atmos), pair(par[Q_FEED], vm, cell_volume),
+                  pair(par[Q_EXH], cell_volume, atmos), pair(par[Q_VENT], cell_volume, atmos),
+                  1.0 / par[Q_TVENT],
+                  rt * _choked(par[Q_CHARGE], p_max, gamma, r_gas, temperature)
+                  / (ver * par[Q_REGBAND]),
+                  rt * _choked(max(par[Q_FEED], par[Q_EXH]), p_max, gamma, r_gas,
+                               temperature) / (cell_volume * par[Q_RELBAND])]
+        if par[Q_COMP] > 0.0:
+            rates.append(1.0 / par[Q_TGOV])
+    else:
+        raise ValueError(f"kind {kind!r}; allowed: 'control', 'driver'")
+    return float(max(rates))
+
+
+# --- presets ------------------------------------------------------------------------------
+
+def _brake_dir():
+    """The shipped valve presets, ``ltdsim/data/brakes/*.toml`` (package data)."""
+    return resources.files("ltdsim.data").joinpath("brakes")
+
+
+def brake_presets() -> list[str]:
+    """Names of the shipped valve presets (``valve = NAME`` under ``[brake.fluid]``)."""
+    folder = _brake_dir()
+    if not folder.is_dir():
+        return []
+    return sorted(p.name.removesuffix(".toml") for p in folder.iterdir()
+                  if p.name.endswith(".toml") and p.is_file())
+
+
+def load_brake_preset(name: str) -> dict:
+    """The ``[control_valve]`` and ``[driver_valve]`` tables of preset ``name``."""
+    names = brake_presets()
+    if name not in names:
+        raise ValueError(f"unknown brake valve preset {name!r}; available: "
+                         f"{', '.join(names) or 'none (this install lacks its package data)'}")
+    with _brake_dir().joinpath(f"{name}.toml").open("rb") as fh:
+        return tomllib.load(fh)
