@@ -37,7 +37,7 @@ from _results import publish
 import ltdsim
 from ltdsim.engine.lowering import lower
 from ltdsim.analysis.reduction import reduce_gear
-from ltdsim.scenario.model import CouplerParams
+from ltdsim.scenario import CouplerParams
 
 HERE = Path(__file__).resolve().parent
 PAPER = HERE.parent / "scenarios" / "paper.toml"

@@ -7,13 +7,13 @@ Runs, in one process:
     recorded every 1 ms, once by the whole ``ltdsim.simulate()`` (lowering, kernel, the
     xarray result) recording the coupler forces only (``solver.record``, as the
     reference does), once by ``simulate()`` recording every variable, and once by the
-    plain hand-written numba kernel of benchmarks/_reference_kernel.py; all compiled
+    plain hand-written numba kernel of benchmarks/reference_kernel.py; all compiled
     and warmed first, then in interleaved rounds (the order reversed every other round),
     CPU time of this process (``time.process_time``) and wall time, medians; the coupler
     forces are compared value by value;
   * ltdsim: the base scenario, case LHHL (speed mode), 270 s, after compilation, several
     times (median);
-  * SciPy: the same model as a NumPy right-hand side (ltdsim.reference) under
+  * SciPy: the same model as a NumPy right-hand side (benchmarks/reference_rhs.py) under
     ``solve_ivp(method="RK23", rtol=1e-6)`` over the first seconds only;
   * the study case with the induction drive (scenarios/paper-induction.toml: the same
     train, profile and PID, ode3 at 1e-4 s, 270 s) against the traction-curve study case
@@ -48,13 +48,13 @@ import time
 import tracemalloc
 from pathlib import Path
 
-import _reference_kernel
+import reference_kernel
 import numpy as np
 from _results import publish
 from scipy.integrate import solve_ivp
 
 import ltdsim
-from ltdsim.reference import make_rhs
+from reference_rhs import make_rhs
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -94,7 +94,7 @@ def _against_reference(sc, rounds: int) -> dict:
     against the hand-written kernel (``reference``): CPU and wall seconds of each,
     ``rounds`` interleaved rounds after a warm-up of all three (the order reversed every
     other round), and the largest difference of their coupler forces."""
-    ref_force = _reference_kernel.simulate(sc)  # compile (or load) and warm all three
+    ref_force = reference_kernel.simulate(sc)  # compile (or load) and warm all three
     ltdsim.simulate(sc)
     ds = ltdsim.simulate(forces_only(sc))
     sim_force = ds.coupler_force.values
@@ -102,7 +102,7 @@ def _against_reference(sc, rounds: int) -> dict:
         raise SystemExit(f"records differ: simulate {sim_force.shape}, reference "
                          f"{ref_force.shape}")
     diff = float(np.max(np.abs(sim_force - ref_force)))
-    runs = {"reference": lambda: _reference_kernel.simulate(sc),
+    runs = {"reference": lambda: reference_kernel.simulate(sc),
             "simulate": lambda: ltdsim.simulate(forces_only(sc)),
             "simulate, all": lambda: ltdsim.simulate(sc)}
     times = {k: {"cpu": [], "wall": []} for k in runs}

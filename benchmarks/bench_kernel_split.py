@@ -41,7 +41,7 @@ ROOT = HERE.parent
 _RUN = r"""
 import os, subprocess, sys
 import ltdsim
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 base = ltdsim.load_scenario("scenarios/paper.toml", case="LHHL").with_overrides(
     {"solver.t_end": 2.0})
 d = base.to_dict()

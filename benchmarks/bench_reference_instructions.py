@@ -5,7 +5,7 @@ instructions executed do not. This runs the force-mode case of bench_kernel.py (
 base train, simplified couplers, ode3 at 1e-4 s, coupler forces at 1 ms) over
 ``--seconds`` of simulated time, once through ``ltdsim.simulate()`` (recording the
 coupler forces only, ``solver.record``, as the reference does) and once through
-benchmarks/_reference_kernel.py, in one process under valgrind's callgrind with
+benchmarks/reference_kernel.py, in one process under valgrind's callgrind with
 instrumentation on only around each call, and splits each count into the compiled
 kernel (numba's ``call_cfunc``), numba's typing of the arguments at each call
 (``Dispatcher_call`` less the kernel) and the Python around them (lowering, buffers,
@@ -51,18 +51,18 @@ _DROP = ("avx512", "amx", "avx10", "avxvnni", "avxifma", "avxneconvert", "vaes",
 _CHILD = r"""
 import os, subprocess, sys
 sys.path.insert(0, sys.argv[1])
-import ltdsim, _reference_kernel
+import ltdsim, reference_kernel
 from bench_kernel import force_case, forces_only
 # (simulate() records the coupler forces only, as the reference kernel does)
 sc = forces_only(force_case(ltdsim.load_scenario(sys.argv[2], case="LHHL"))).with_overrides(
     {"solver.t_end": float(sys.argv[3])})
 ltdsim.simulate(sc)  # load both kernels, warm
-_reference_kernel.simulate(sc)
+reference_kernel.simulate(sc)
 if len(sys.argv) > 4:
     pid = str(os.getpid())
     def control(*a):
         subprocess.run(["callgrind_control", *a, pid], check=True, capture_output=True)
-    for name, run in (("simulate", ltdsim.simulate), ("reference", _reference_kernel.simulate)):
+    for name, run in (("simulate", ltdsim.simulate), ("reference", reference_kernel.simulate)):
         control("-i", "on")
         run(sc)
         control("-i", "off")

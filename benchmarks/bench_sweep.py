@@ -117,8 +117,10 @@ def _parts(spec, n_cases: int, out: Path) -> dict[str, float]:
     """Median CPU seconds of each part of a case's work, in this process."""
     from ltdsim.results.io import atomic_path, sealed_json
     from ltdsim.analysis.phases import phase_norms
-    from ltdsim.scenario.model import Scenario
-    from ltdsim.results.simulate import _dataset, _integrate, check_memory, lower, simulate
+    from ltdsim.scenario import Scenario
+    from ltdsim.engine.lowering import lower
+    from ltdsim.engine.run import check_memory, integrate as _integrate
+    from ltdsim.results.simulate import _dataset, simulate
 
     simulate(spec.scenario(spec.cases[0]).with_overrides({"solver.t_end": 1e-3}))  # load
     parts: dict[str, list[float]] = {}

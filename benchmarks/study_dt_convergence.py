@@ -43,7 +43,7 @@ from _results import machine  # noqa: E402
 import ltdsim  # noqa: E402
 from ltdsim.analysis.gears import impact  # noqa: E402
 from ltdsim.results.io import atomic_path  # noqa: E402
-from ltdsim.scenario.model import CouplerParams  # noqa: E402
+from ltdsim.scenario import CouplerParams  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 STEPS = (2e-4, 1e-4, 5e-5, 2.5e-5, 1.25e-5)  # s, ode3

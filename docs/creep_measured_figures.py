@@ -20,6 +20,7 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker
 import numpy as np
 
+from ltdsim.data import load_preset
 from ltdsim.physics.drive import creep as cr
 
 HERE = Path(__file__).resolve().parent
@@ -35,7 +36,7 @@ F11 = G * A_SEMI * B_SEMI * C11                          # N
 X = np.array(DATA["measured"]["creepage_percent"])        # %
 Y = np.array(DATA["measured"]["traction_coefficient"])    # -
 EDGES = (0.38, 0.6, 1.0, 1.5, 3.0, 5.0, 10.0, 15.0, 22.0)  # %, as the test
-PRESET = cr.load_creep_preset("eurosprinter")
+PRESET = load_preset("creep", "eurosprinter")
 ROW = cr.creep_row(PRESET)
 
 
@@ -56,7 +57,7 @@ LTD = law(ROW)
 EXT, EXT_X, EXT_Y = contact("extended")
 MFS, MFS_X, MFS_Y = contact("modified_fastsim")
 KAL, KAL_X, KAL_Y = contact("kalker")
-DRY = law(cr.creep_row(cr.load_creep_preset("dry")))
+DRY = law(cr.creep_row(load_preset("creep", "dry")))
 
 
 def bands(f):

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from ltdsim.physics import foc  # noqa: E402
-from ltdsim.scenario.model import Scenario  # noqa: E402
+from ltdsim.scenario import Scenario  # noqa: E402
 from ltdsim.results.simulate import simulate  # noqa: E402
 
 HERE = Path(__file__).parent

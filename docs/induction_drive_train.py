@@ -15,7 +15,7 @@ import sys  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from ltdsim.scenario.model import load_scenario  # noqa: E402
+from ltdsim.scenario import load_scenario  # noqa: E402
 from ltdsim.results.simulate import simulate  # noqa: E402
 
 HERE = Path(__file__).parent

@@ -15,7 +15,7 @@ import numpy as np
 
 from ltdsim.physics.gears.polymer import polymer_curves, polymer_gear
 from ltdsim.viz.plotting import WIDTH, _save, plt
-from ltdsim.scenario.model import load_gear_preset
+from ltdsim.data import load_preset
 
 KEYS = ("preload", "initial_stiffness", "force_at_travel", "travel", "exponent",
         "return_ratio", "gain_loading", "gain_unloading", "rate_speed")
@@ -26,31 +26,31 @@ STEPS = 4000                    # RK4 steps per leg
 
 def loop(p, speed):
     """Deflection (m) and force (N) of one loop 0 -> travel -> 0 at ``speed`` m/s."""
-    q = [p[k] for k in KEYS]
+    q = tuple(p[k] for k in KEYS)
     extra = (p["k_locked"], 1.0 / TRACKING_TIME, p["solid_stiffness"])
     travel = p["travel"]
     h = travel / speed / STEPS
     f1 = p["preload"]  # released gear
-    xs, fs = [0.0], [polymer_gear(f1, 0.0, speed, *q, *extra)[0]]
+    xs, fs = [0.0], [polymer_gear(f1, 0.0, speed, q, *extra)[0]]
     for v, x0 in ((speed, 0.0), (-speed, travel)):
         for k in range(STEPS):
             x = x0 + v * h * k
 
             def rate(f, xx, v=v):
-                return polymer_gear(f, xx, v, *q, *extra)[1]
+                return polymer_gear(f, xx, v, q, *extra)[1]
             d1 = rate(f1, x)
             d2 = rate(f1 + 0.5 * h * d1, x + 0.5 * h * v)
             d3 = rate(f1 + 0.5 * h * d2, x + 0.5 * h * v)
             d4 = rate(f1 + h * d3, x + h * v)
             f1 += h / 6.0 * (d1 + 2 * d2 + 2 * d3 + d4)
             xs.append(x + h * v)
-            fs.append(polymer_gear(f1, xs[-1], v, *q, *extra)[0])
+            fs.append(polymer_gear(f1, xs[-1], v, q, *extra)[0])
     return np.array(xs), np.array(fs)
 
 
 def main(path=Path(__file__).with_name("polymer_loops.png")):
-    p = {k: v for k, v in load_gear_preset("polymer-heavy-haul").items() if k != "model"}
-    q = [p[k] for k in KEYS]
+    p = {k: v for k, v in load_preset("gears", "polymer-heavy-haul").items() if k != "model"}
+    q = tuple(p[k] for k in KEYS)
     fig, ax = plt.subplots(figsize=(0.62 * WIDTH, 4.6), constrained_layout=True)
     xq = np.linspace(0.0, p["travel"], 200)
     static = np.array([polymer_curves(x, 0.0, *q)[:2] for x in xq])

@@ -8,6 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ltdsim.data import load_preset
 from ltdsim.physics.air import brakevalves as bv
 from ltdsim.physics.air.pneumatics import orifice_flow
 
@@ -82,7 +83,7 @@ def rig_run(y0, cv, dv, t_end, h, times, handles, reductions, vents, pipe_volume
 
 
 def rows(name):
-    preset = bv.load_brake_preset(name)
+    preset = load_preset("brakes", name)
     return bv.control_valve_row(preset["control_valve"]), bv.driver_valve_row(
         preset["driver_valve"])
 

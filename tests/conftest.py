@@ -9,7 +9,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from ltdsim import Scenario
-from ltdsim.reference import make_rhs
+from reference_rhs import make_rhs
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "scenarios" / "paper.toml"

@@ -53,9 +53,10 @@ class Pipe:
         nc = self.nc
         p, q = y[:nc], y[nc:2 * nc - 1]
         inflow = self.feed(p) if self.feed is not None else np.zeros(nc)
-        leak = pipe_rates(p, q, inflow, self.area, self.dx_cell, self.dx_face,
-                          self.diameter, self.roughness, self.viscosity, self.leaks,
-                          GAMMA, R, T, PATM, R_LIN, dy[:nc], dy[nc:2 * nc - 1])
+        leak = pipe_rates(p, q, inflow, (self.area, self.dx_cell, self.dx_face,
+                                         self.diameter, self.roughness, self.viscosity,
+                                         self.leaks),
+                          (GAMMA, R, T, PATM, R_LIN), dy[:nc], dy[nc:2 * nc - 1])
         dy[-1] = leak - float(np.sum(inflow))
 
     def mass(self, y):
@@ -303,14 +304,14 @@ def test_rates_conserve_mass_and_mirror(lengths, n, seed):
     args = (A, g.dx_cell, g.dx_face, D, EPS, MU)
     gas = (GAMMA, R, T, PATM, R_LIN)
     dp, dq = np.zeros(nc), np.zeros(nc - 1)
-    leak = pipe_rates(p, q, inflow, *args, leaks, *gas, dp, dq)
+    leak = pipe_rates(p, q, inflow, (*args, leaks), gas, dp, dq)
     dm = np.sum(dp * g.dx_cell) * A / (R * T)
     scale = np.sum(np.abs(q)) + np.sum(np.abs(inflow)) + abs(leak) + 1e-12
     assert abs(dm - (np.sum(inflow) - leak)) < 1e-12 * scale
     rp, rq = np.zeros(nc), np.zeros(nc - 1)
     rev = (A, g.dx_cell[::-1].copy(), g.dx_face[::-1].copy(), D, EPS, MU)
-    leak_r = pipe_rates(p[::-1].copy(), -q[::-1], inflow[::-1].copy(), *rev,
-                        leaks[::-1].copy(), *gas, rp, rq)
+    leak_r = pipe_rates(p[::-1].copy(), -q[::-1], inflow[::-1].copy(),
+                        (*rev, leaks[::-1].copy()), gas, rp, rq)
     assert math.isclose(leak_r, leak, rel_tol=1e-12, abs_tol=1e-15)
     np.testing.assert_allclose(rp[::-1], dp, rtol=1e-9, atol=1e-9 * np.max(np.abs(dp)))
     np.testing.assert_allclose(-rq[::-1], dq, rtol=1e-9, atol=1e-9 * np.max(np.abs(dq), initial=0.0))
@@ -321,8 +322,9 @@ def test_rest_is_an_equilibrium():
     g = pipe_geometry([20.0, 15.0, 15.0], 3)
     nc = g.dx_cell.size
     dp, dq = np.ones(nc), np.ones(nc - 1)
-    leak = pipe_rates(np.full(nc, P0), np.zeros(nc - 1), np.zeros(nc), A, g.dx_cell,
-                      g.dx_face, D, EPS, MU, np.zeros(nc), GAMMA, R, T, PATM, R_LIN, dp, dq)
+    leak = pipe_rates(np.full(nc, P0), np.zeros(nc - 1), np.zeros(nc),
+                      (A, g.dx_cell, g.dx_face, D, EPS, MU, np.zeros(nc)),
+                      (GAMMA, R, T, PATM, R_LIN), dp, dq)
     assert leak == 0.0 and not dp.any() and not dq.any()
 
 
@@ -375,8 +377,8 @@ def _jacobian(p, q, pipe_args, leaks):
 
     def f(y):
         dp, dq = np.zeros(nc), np.zeros(nc - 1)
-        pipe_rates(y[:nc], y[nc:], np.zeros(nc), *pipe_args, leaks, GAMMA, R, T, PATM,
-                   R_LIN, dp, dq)
+        pipe_rates(y[:nc], y[nc:], np.zeros(nc), (*pipe_args, leaks),
+                   (GAMMA, R, T, PATM, R_LIN), dp, dq)
         return np.concatenate([dp, dq])
 
     jac = np.zeros((y0.size, y0.size))
@@ -407,7 +409,7 @@ def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed):
     leaks = leak * rng.random(nc)
     args = (A, g.dx_cell, g.dx_face, D, EPS, MU)
     lam = np.max(np.abs(np.linalg.eigvals(_jacobian(p, q, args, leaks))))
-    bound = pipe_max_rate(p, q, *args, leaks, GAMMA, R, T, R_LIN)
+    bound = pipe_max_rate(p, q, (*args, leaks), (GAMMA, R, T, PATM, R_LIN))
     assert lam <= bound * (1 + 1e-6)
     assert bound <= (3.0 if flow > 0.0 else 1.25 if leak > 0.0 else 1.001) * lam
 
@@ -421,5 +423,5 @@ def test_max_rate_is_tight_on_a_uniform_pipe_at_rest():
     lam = np.max(np.abs(np.linalg.eigvals(_jacobian(p, q, args, np.zeros(nc)))))
     exact = 2 * C / 7.5 * math.cos(math.pi / (2 * nc))
     assert abs(lam / exact - 1) < 1e-4
-    bound = pipe_max_rate(p, q, *args, np.zeros(nc), GAMMA, R, T, R_LIN)
+    bound = pipe_max_rate(p, q, (*args, np.zeros(nc)), (GAMMA, R, T, PATM, R_LIN))
     assert lam * (1 - 1e-6) <= bound < 1.0001 * lam

@@ -7,6 +7,7 @@ conservation of air."""
 import itertools
 import math
 import tomllib
+from importlib.resources import files
 
 import numpy as np
 import pytest
@@ -27,6 +28,7 @@ from _valve_rig import (
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from ltdsim.data import load_preset, preset_names
 from ltdsim.physics.air import brakevalves as bv
 
 BAR = 1e5
@@ -41,11 +43,11 @@ UIC_WINDOWS = {"uic-g": ((18.0, 30.0), (45.0, 60.0)), "uic-p": ((3.0, 5.0), (15.
 
 
 def _dv(name, key):
-    return bv.load_brake_preset(name)["driver_valve"][key]
+    return load_preset("brakes", name)["driver_valve"][key]
 
 
 def _cv(name, key):
-    return bv.load_brake_preset(name)["control_valve"][key]
+    return load_preset("brakes", name)["control_valve"][key]
 
 
 def _gauge(ys, i):
@@ -326,23 +328,23 @@ def test_max_rate_is_a_stable_step(name):
 
 
 def test_presets_ship_and_bad_keys_are_refused():
-    assert {"uic-g", "uic-p", "aar"} <= set(bv.brake_presets())
-    for name in bv.brake_presets():
-        p = bv.load_brake_preset(name)
+    assert {"uic-g", "uic-p", "aar"} <= set(preset_names("brakes"))
+    for name in preset_names("brakes"):
+        p = load_preset("brakes", name)
         assert bv.control_valve_row(p["control_valve"]).shape == (bv.N_CV_PARAMS,)
         assert bv.driver_valve_row(p["driver_valve"]).shape == (bv.N_DV_PARAMS,)
-    table = dict(bv.load_brake_preset("uic-g")["control_valve"])
+    table = dict(load_preset("brakes", "uic-g")["control_valve"])
     table["apply_diametre"] = 1e-3
     with pytest.raises(ValueError, match="unknown key 'apply_diametre'"):
         bv.control_valve_row(table)
-    table = dict(bv.load_brake_preset("uic-g")["control_valve"], family="kunze")
+    table = dict(load_preset("brakes", "uic-g")["control_valve"], family="kunze")
     with pytest.raises(ValueError, match="family"):
         bv.control_valve_row(table)
     with pytest.raises(ValueError, match="unknown brake valve preset"):
-        bv.load_brake_preset("nope")
+        load_preset("brakes", "nope")
     # every number in a preset carries a comment (its source or reasoning)
-    for name in bv.brake_presets():
-        text = bv._brake_dir().joinpath(f"{name}.toml").read_text()
+    for name in preset_names("brakes"):
+        text = files("ltdsim.data").joinpath("brakes", f"{name}.toml").read_text()
         tomllib.loads(text)
         for line in text.splitlines():
             if "=" in line and not line.lstrip().startswith("#") and "family" not in line:

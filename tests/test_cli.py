@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 import ltdsim
 from ltdsim.cli.app import app
 from ltdsim.analysis.phases import WHOLE_RUN, phase_norms, phases_of
-from ltdsim.scenario.model import STUDY_PHASES
+from ltdsim.scenario import STUDY_PHASES
 from ltdsim.results.summary import stopping
 
 from conftest import PAPER, ROOT, build, train_dict

@@ -20,7 +20,8 @@ from hypothesis import strategies as st
 from ltdsim.engine.couplers import MODEL_NAMES, N_CCOL, REGISTRY
 from ltdsim.errors import ScenarioError
 from ltdsim.engine.lowering import lower
-from ltdsim.scenario.model import COUPLER_CLASSES, CouplerParams, load_gear_preset
+from ltdsim.scenario import COUPLER_CLASSES, CouplerParams
+from ltdsim.data import load_preset
 
 from conftest import build, train_dict
 
@@ -31,10 +32,10 @@ FULL = {
     "simplified": {"model": "simplified", "slack": 0.025, "preload": 1e4, "damping": 1e3,
                    "k1": 8e6, "k2": 1.8e6, "k3": 3.4e6, "v_c": 0.6, "travel": 0.09,
                    "solid_stiffness": 3e9, "fade": "rate", "gears": 2},
-    "friction_wedge": {**load_gear_preset("friction-wedge-high"), "tracking_time": 2e-3,
+    "friction_wedge": {**load_preset("gears", "friction-wedge-high"), "tracking_time": 2e-3,
                        "solid_stiffness": 4e9, "plate_backlash": 0.004},
-    "table": {**load_gear_preset("mt-2"), "tracking_time": 3e-3, "solid_stiffness": 5e9},
-    "polymer": {**load_gear_preset("polymer-heavy-haul"), "tracking_time": 1e-3,
+    "table": {**load_preset("gears", "mt-2"), "tracking_time": 3e-3, "solid_stiffness": 5e9},
+    "polymer": {**load_preset("gears", "polymer-heavy-haul"), "tracking_time": 1e-3,
                 "solid_stiffness": 6e9},
 }
 S_TABLE = {"velocity": [0.0, 1.0, 4.0], "deflection": [0.0, 0.05],
@@ -229,7 +230,7 @@ def test_an_override_that_changes_the_model_keeps_only_the_shared_keys():
 def test_an_override_naming_a_preset_takes_the_presets_gear():
     sc = _with_override({"index": 0, "preset": "mt-2"})
     c = sc.coupler(0)
-    assert c.model == "table" and c.k_locked == load_gear_preset("mt-2")["k_locked"]
+    assert c.model == "table" and c.k_locked == load_preset("gears", "mt-2")["k_locked"]
     assert c.slack == FULL["simplified"]["slack"]  # the default's slack, not the preset's
 
 
@@ -248,7 +249,7 @@ def test_couplerparams_builds_the_model_class_and_merges_presets():
 def test_a_result_saved_before_the_model_classes_reads_back():
     # results used to save every coupler key of every model (others null or at their
     # defaults); a saved dump drops them, a file refuses them
-    from ltdsim.scenario.model import Scenario
+    from ltdsim.scenario import Scenario
 
     sc = build(train_dict([8e4, 9e4], coupler=FULL["friction_wedge"]))
     old = sc.to_dict()

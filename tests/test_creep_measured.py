@@ -46,6 +46,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
+from ltdsim.data import load_preset
 from ltdsim.physics.drive import creep as cr
 
 DATA = tomllib.loads((Path(__file__).parent / "data" / "eurosprinter_creep.toml")
@@ -137,7 +138,7 @@ def contact_band_excess(law) -> tuple[float, float]:
     return float(excess[i]), float(xs[i])
 
 
-EUROSPRINTER = cr.creep_row(cr.load_creep_preset("eurosprinter"))
+EUROSPRINTER = cr.creep_row(load_preset("creep", "eurosprinter"))
 LAW = ltdsim_law(EUROSPRINTER)
 
 
@@ -213,8 +214,8 @@ def _without_falling_friction():
 
 
 WRONG = {
-    "dry preset": lambda: ltdsim_law(cr.creep_row(cr.load_creep_preset("dry"))),
-    "wet preset": lambda: ltdsim_law(cr.creep_row(cr.load_creep_preset("wet"))),
+    "dry preset": lambda: ltdsim_law(cr.creep_row(load_preset("creep", "dry"))),
+    "wet preset": lambda: ltdsim_law(cr.creep_row(load_preset("creep", "wet"))),
     "Kalker linear theory": lambda: _linear_kalker,
     "Kalker exact theory, Coulomb 0.33 (CONTACT)": lambda: contact_curve("kalker"),
     "Polach without falling friction": _without_falling_friction,

@@ -13,7 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.special import fresnel
 
-from ltdsim.results.curving import Alignment, TrainGeometry, alignment_of, curving_state
+from ltdsim.physics.alignment import Alignment, alignment_of
+from ltdsim.results.curving import TrainGeometry, curving_state
 from ltdsim.physics.curving import (
     body_lateral_balance,
     cant_deficiency,
@@ -21,7 +22,7 @@ from ltdsim.physics.curving import (
     nadal_limit,
     prudhomme_limit,
 )
-from ltdsim.scenario.model import Track
+from ltdsim.scenario import Track
 
 
 def _geo(n, half_b=4.2, overhang=1.0, mass=1.3e5):
@@ -257,7 +258,7 @@ def test_profile_file_gives_the_same_alignment(tmp_path):
     the same track given as `curve`, `transitions` and `cant` gives; a bad row is one
     line naming the file and the line."""
     from ltdsim.errors import ScenarioError
-    from ltdsim.scenario.model import load_scenario
+    from ltdsim.scenario import load_scenario
 
     base = (tmp_path / "s.toml")
     toml = """name = "p"
@@ -354,7 +355,7 @@ def test_curve_limit_cli_prints_the_function_and_refuses_bad_input():
 
     from ltdsim.cli.app import app
     from ltdsim.results.curving import curve_limit
-    from ltdsim.scenario.model import Curving, load_scenario
+    from ltdsim.scenario import Curving, load_scenario
 
     path = ROOT / "scenarios" / "heavy-haul.toml"
     runner = CliRunner()
@@ -445,7 +446,7 @@ def test_add_curving_on_records_and_angle_stops():
     from conftest import train_dict
 
     from ltdsim.results.curving import add_curving
-    from ltdsim.scenario.model import Scenario
+    from ltdsim.scenario import Scenario
     from ltdsim.results.summary import curving_summary
 
     n, L, R, F = 6, 15.0, 250.0, 4e5

@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 from ltdsim.analysis.gears import drive_deflection, impact, loop_energy, table_from_ratings
 from ltdsim.physics.gears.draftgear import wedge_gear_quasistatic
-from ltdsim.analysis.reduction import reduce_gear
-from ltdsim.scenario.model import CouplerParams
+from ltdsim.analysis.reduction import Search, reduce_gear
+from ltdsim.scenario import CouplerParams
 
 from conftest import PAPER
 
@@ -101,8 +101,8 @@ def test_the_curves_at_speed_are_equation_1_with_each_friction_at_its_sliding_sp
     c2 = math.sin(g) / math.cos(a + g)
     c3 = math.cos(a) * math.sin(g) / (math.cos(a + g) * math.cos(b))
     engaged = 1.0 if plates else 0.0
-    f_l, f_u, _, _ = wedge_curves(x, v, math.tan(a), math.tan(b), math.tan(g), G, c1, c2, c3,
-                                  c.h1, c.h2, c.h3, c.S, c.k_m, c.x_m0, c.k_r, c.x_r0,
+    f_l, f_u, _, _ = wedge_curves(x, v, (math.tan(a), math.tan(b), math.tan(g), G, c1, c2, c3),
+                                  (c.h1, c.h2, c.h3), c.S, (c.k_m, c.x_m0, c.k_r, c.x_r0),
                                   engaged, engaged)
     assert_allclose([f_l, f_u], by_hand_moving(x, v, c, plates), rtol=1e-9)
 
@@ -189,9 +189,9 @@ def test_quasi_static_force_equals_equation_1_by_hand():
     a, b, g = np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg])
     for plates in (0.0, 1.0):
         for loading in (0.0, 1.0):
-            lib = wedge_gear_quasistatic(0.06, loading, a, b, g, c.h1, c.h2, c.h3, c.S, c.k_m,
-                                         c.x_m0, c.k_r, c.x_r0, c.plate_gap, c.plate_backlash,
-                                         plates)
+            lib = wedge_gear_quasistatic(0.06, loading, (a, b, g), (c.h1, c.h2, c.h3), c.S,
+                                         (c.k_m, c.x_m0, c.k_r, c.x_r0), c.plate_gap,
+                                         c.plate_backlash, plates)
             assert_allclose(lib, by_hand(0.06, c, bool(plates), bool(loading)), rtol=1e-9)
 
 
@@ -225,7 +225,8 @@ def test_reduction_recovers_a_simplified_coupler(fade, v_c):
     true = CouplerParams(model="simplified", slack=0.025, damping=2512.0, k1=8.265776e6,
                          k2=1.856364e6, k3=3.4748e6, v_c=v_c, travel=0.08, fade=fade)
     segments = ((1e6, np.pi / 2, 4.0), (1e6, 2 * np.pi, 1.0), (1e7, 10 * np.pi, 0.2))
-    r = reduce_gear(true, segments=segments, dt=1e-3, popsize=10, maxiter=300, fade=fade)
+    r = reduce_gear(true, segments=segments, dt=1e-3, search=Search(popsize=10, maxiter=300),
+                    fade=fade)
     for k, v in r.parameters.items():
         assert_allclose(v, getattr(true, k), rtol=0.02, err_msg=k)
     assert r.fit_percent > 99.9
@@ -306,9 +307,9 @@ def test_the_library_curves_are_equation_1_over_its_geometry_and_friction(
     assume(math.tan(a + math.atan(m)) * math.tan(g + math.atan(m)) < 0.95)  # not locked
     c = CouplerParams(preset="friction-wedge-high", slack=0.0, alpha_deg=alpha, beta_deg=beta,
                       gamma_deg=gamma, h1=h1, h2=h2, S=s, x_m0=0.01, x_r0=0.0)
-    lib = wedge_gear_quasistatic(x, loading, a, math.radians(beta), g, c.h1, c.h2, c.h3, c.S,
-                                 c.k_m, c.x_m0, c.k_r, c.x_r0, c.plate_gap, c.plate_backlash,
-                                 plates)
+    lib = wedge_gear_quasistatic(x, loading, (a, math.radians(beta), g), (c.h1, c.h2, c.h3),
+                                 c.S, (c.k_m, c.x_m0, c.k_r, c.x_r0), c.plate_gap,
+                                 c.plate_backlash, plates)
     assert_allclose(lib, by_hand(x, c, bool(plates), bool(loading)), rtol=1e-9)
 
 
@@ -337,9 +338,10 @@ def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
     delta = r[W_BACK]
     engaged = plates_out(p, max(delta, 1e-3))
     carried = engaged if plates_carried(x - r[W_GAP], p, delta) else 0.0
-    f_l, f_u, _, _ = wedge_curves(x, v, r[W_TA], r[W_TB], r[W_TG], r[W_G], r[W_C1],
-                                  r[W_C2], r[W_C3], r[W_H1], r[W_H2], r[W_H3], r[W_S],
-                                  r[W_KM], r[W_XM0], r[W_KR], r[W_XR0], engaged, carried)
+    f_l, f_u, _, _ = wedge_curves(x, v, (r[W_TA], r[W_TB], r[W_TG], r[W_G], r[W_C1],
+                                          r[W_C2], r[W_C3]), (r[W_H1], r[W_H2], r[W_H3]),
+                                  r[W_S], (r[W_KM], r[W_XM0], r[W_KR], r[W_XR0]), engaged,
+                                  carried)
     solid = solid_closure(x, r[P_TRAVEL], r[P_KSOLID])
     f_l += solid
     f_u = min(f_u + solid, f_l)

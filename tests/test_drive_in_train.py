@@ -15,7 +15,7 @@ from ltdsim.scenario.creep import RailCondition
 from ltdsim.physics.drive import creep as cr
 from ltdsim.physics.drive import foc
 from ltdsim.physics.drive.induction import M_LM, M_LR, M_LS, M_P, M_RR, M_RS, motor_row
-from ltdsim.scenario.model import Scenario, load_scenario
+from ltdsim.scenario import Scenario, load_scenario
 from ltdsim.results.simulate import simulate
 
 STATIC = 66630.0  # kg, the study's locomotive (static mass)

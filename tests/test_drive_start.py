@@ -29,7 +29,7 @@ from ltdsim.physics.drive.induction import (
     motor_row,
     torque,
 )
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 from ltdsim.results.simulate import simulate
 
 PRESET = "study-850kw"
@@ -261,7 +261,7 @@ def test_speed_mode_at_speed_follows_the_controller_within_the_limits(speed):
     PID's changing demand, so it is not bounded by it step by step)."""
     from pathlib import Path
 
-    from ltdsim.scenario.model import load_scenario
+    from ltdsim.scenario import load_scenario
 
     root = Path(__file__).resolve().parents[1] / "scenarios"
     s = load_scenario(root / "paper-induction.toml").with_overrides(

@@ -27,7 +27,7 @@ from ltdsim.results.summary import PIPE_DROP
 from conftest import build
 
 #: the module (``ltdsim.results.simulate`` is also the function the package exports)
-sim = importlib.import_module("ltdsim.results.simulate")
+sim = importlib.import_module("ltdsim.engine.run")
 
 #: UIC 540 (the study's sonic propagation; brake-pipe emergency wave measured at
 #: 250-300 m/s): the least propagation speed of an emergency application, m/s
@@ -284,7 +284,7 @@ def test_full_service_brakes_as_hard_as_the_lumped_brake_at_level_one():
 def _issue_time(d):
     """Time (s) at which the first brake command of scenario dict ``d`` is issued."""
     low = lower(build(d))
-    rec = sim._integrate(low, build(d), None, 1)
+    rec = sim.integrate(low, build(d), None, 1)
     assert rec["n_events"] >= 1
     return float(rec["events"][0, 0])
 

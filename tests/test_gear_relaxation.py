@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 from ltdsim.engine.couplers import P_RATE, coupler_force, lower_coupler
 from ltdsim.analysis.gears import drive_deflection, impact
 from ltdsim.engine.kernel import _relax_in_slack
-from ltdsim.scenario.model import CouplerParams
+from ltdsim.scenario import CouplerParams
 
 # a table gear whose loading and unloading curves are parallel lines (slope S, N/m) and
 # do not depend on speed: the internal force then obeys the plain law in closed form

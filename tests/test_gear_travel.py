@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 
 import ltdsim
 from ltdsim.physics import coupler_linear, coupler_simplified
-from ltdsim.reference import make_rhs
+from reference_rhs import make_rhs
 
 from conftest import build, train_dict
 

@@ -17,7 +17,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from ltdsim.scenario.motor import Motor, load_motor, motor_presets
+from ltdsim.data import preset_names
+from ltdsim.scenario.motor import Motor, load_motor
 from ltdsim.physics.drive import foc
 from ltdsim.physics.drive.induction import (
     M_LM,
@@ -96,7 +97,7 @@ def test_preset_is_the_derivation_from_the_ratings():
     """The shipped circuit is what the documented method gives from the ratings (to the
     5 significant digits written), and the set reproduces the ratings: 850 kW and 270 A
     winding at 1283 rpm, within the DC link's voltage limit."""
-    assert PRESET in motor_presets()
+    assert PRESET in preset_names("motors")
     motor = load_motor(PRESET)
     d = derive_from_ratings(motor)
     for key in ("stator_resistance", "rotor_resistance", "stator_leakage_inductance",
@@ -130,13 +131,19 @@ def test_motor_schema_refuses_bad_values():
 
 
 def test_bad_motor_preset_is_one_line_naming_file_and_key(tmp_path, monkeypatch):
+    import ltdsim.data as data
     import ltdsim.scenario.motor as ds
 
-    text = ds._motor_dir().joinpath(f"{PRESET}.toml").read_text(encoding="utf-8")
+    text = data._folder("motors").joinpath(f"{PRESET}.toml").read_text(encoding="utf-8")
     bad = text.replace("rotor_resistance = 0.020563", "rotor_resistance = -0.02")
     assert bad != text
-    (tmp_path / "broken.toml").write_text(bad, encoding="utf-8")
-    monkeypatch.setattr(ds, "_motor_dir", lambda: tmp_path)
+    (tmp_path / "motors").mkdir()
+    (tmp_path / "motors" / "broken.toml").write_text(bad, encoding="utf-8")
+    monkeypatch.setattr(data, "_folder", lambda family: tmp_path / family)
+    for cached in (data.preset_names, data._read):
+        cached.cache_clear()
+    monkeypatch.setattr(data, "preset_names", data.preset_names.__wrapped__)
+    monkeypatch.setattr(data, "_read", data._read.__wrapped__)
     with pytest.raises(ValueError) as e:
         ds.load_motor("broken")
     msg = str(e.value)

@@ -98,7 +98,7 @@ def test_a_diverging_simulation_stops_and_names_time_vehicle_and_values():
     # explicit Euler far beyond its stability limit: k/m = 1e5 1/s^2 at dt = 0.01 s
     d = train_dict([1e4, 1e4, 1e4], t_end=100.0, dt=1e-2, method="euler",
                    coupler={"model": "linear", "stiffness": 1e9, "damping": 0.0, "slack": 0.0})
-    d["solver"]["stability_check"] = False  # (else refused at load: see issue 13 below)
+    d["solver"]["stability_check"] = False  # (else refused before the run: see below)
     with pytest.raises(SimulationError) as info:
         ltdsim.simulate(build(d))
     err = info.value
@@ -425,6 +425,7 @@ def test_monte_carlo_samples_and_seed_are_whole_numbers(tmp_path, line, key):
 # explicit fixed-step methods: the largest stable step (ltdsim.engine.preflight)
 from ltdsim.engine.preflight import (
     WARN_SHARE,
+    check,
     imaginary_radius,
     real_radius,
     step_limit,
@@ -489,9 +490,9 @@ def test_a_two_mass_train_diverges_just_above_the_limit_and_not_below(method, da
     if method == "euler":  # |1 + h lambda| = 1 at h = c / k
         assert lim.limit == pytest.approx(damping / 1.0e7, rel=1e-9)
     below, above = 0.97 * lim.limit, 1.03 * lim.limit
-    build(_two_masses(method, below, steps, damping))  # accepted
+    check(build(_two_masses(method, below, steps, damping)))  # accepted
     with pytest.raises(ScenarioError, match="solver.dt"):
-        build(_two_masses(method, above, steps, damping))
+        check(build(_two_masses(method, above, steps, damping)))
     assert _growth(method, below, steps, damping) <= 1.0
     assert _growth(method, above, steps, damping) > 3.0
 
@@ -540,7 +541,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from ltdsim.engine.lowering import lower
-from ltdsim.scenario.model import scenario_from_data
+from ltdsim.scenario import scenario_from_data
 
 SHIPPED = {p.name: p.read_bytes() for p in sorted((ROOT / "scenarios").glob("*.toml"))
            if b"scenario = " not in p.read_bytes()}  # (not the sweep file)
@@ -631,7 +632,7 @@ def test_a_fast_first_order_lag_sets_the_limit_and_is_named():
     lim = step_limit(sc)
     assert lim.limit == pytest.approx(real_radius("ode3") * tau, rel=1e-12)
     with pytest.raises(ScenarioError) as info:
-        sc.with_overrides({"solver.dt": 5e-4, "driver.pid.ts": 5e-4})
+        ltdsim.simulate(sc.with_overrides({"solver.dt": 5e-4, "driver.pid.ts": 5e-4}))
     assert "solver.dt" in str(info.value) and "traction.time_constant = 0.0001 s" in str(info.value)
 
 
@@ -650,6 +651,9 @@ from ltdsim.sweep import core as sw  # noqa: E402
 SHORT = ROOT / "scenarios" / "short-train.toml"
 PAPER_TOML = ROOT / "scenarios" / "paper.toml"
 SIM = sys.modules["ltdsim.results.simulate"]
+import ltdsim.engine.run  # noqa: E402
+
+RUN = sys.modules["ltdsim.engine.run"]
 
 
 def cli(*args):
@@ -715,7 +719,7 @@ def test_the_memory_estimate_matches_what_a_run_allocates():
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-    est = SIM.recording_bytes(sc)
+    est = RUN.recording_bytes(sc)
     assert ds.sizes["time"] == 100_001
     assert ds.nbytes < est  # the result is part of what was estimated
     assert 0.85 < est / peak < 1.15, (est, peak)
@@ -723,13 +727,13 @@ def test_the_memory_estimate_matches_what_a_run_allocates():
 
 def test_a_run_over_the_memory_share_is_refused_and_one_under_it_runs(monkeypatch):
     sc = build(train_dict([1e5, 1e5], t_end=1.0, dt=1e-3))
-    need = SIM.recording_bytes(sc)
-    monkeypatch.setattr(SIM, "available_memory", lambda: int(need / SIM.MEMORY_SHARE * 0.99))
+    need = RUN.recording_bytes(sc)
+    monkeypatch.setattr(RUN, "available_memory", lambda: int(need / RUN.MEMORY_SHARE * 0.99))
     with pytest.raises(ScenarioError) as info:
         ltdsim.simulate(sc)
     msg = str(info.value)
     assert "solver.output_interval" in msg and "solver.t_end" in msg and "GB" in msg
-    monkeypatch.setattr(SIM, "available_memory", lambda: int(need / SIM.MEMORY_SHARE * 1.01))
+    monkeypatch.setattr(RUN, "available_memory", lambda: int(need / RUN.MEMORY_SHARE * 1.01))
     assert ltdsim.simulate(sc).sizes["time"] == 1001
 
 
@@ -752,15 +756,15 @@ def test_t_end_1e7_is_refused_before_anything_is_allocated(tmp_path, method):
     samples = int(1e7 / sc.solver.output_interval) + 1
     assert f"{samples:,} samples" in line
     gb = float(line.split("about ")[1].split(" GB")[0].replace(",", ""))
-    assert gb * 1e9 == pytest.approx(SIM.recording_bytes(sc), rel=0.01)
+    assert gb * 1e9 == pytest.approx(RUN.recording_bytes(sc), rel=0.01)
 
 
 def test_a_memory_error_while_allocating_is_one_line_failure(monkeypatch):
     def no_memory(low, n, keep=None):
         raise MemoryError
-    monkeypatch.setattr(SIM, "_buffers", no_memory)
+    monkeypatch.setattr(RUN, "_buffers", no_memory)
     with pytest.raises(SimulationError, match="solver.output_interval"):
-        SIM._integrate(SIM.lower(build(train_dict([1e5, 1e5], t_end=1.0))),
+        RUN.integrate(lower(build(train_dict([1e5, 1e5], t_end=1.0))),
                        build(train_dict([1e5, 1e5], t_end=1.0)), None, 10)
 
 

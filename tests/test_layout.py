@@ -18,7 +18,7 @@ from ltdsim.engine import layout as L
 from ltdsim.engine.lowering import lower
 from ltdsim.physics.air.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
-from ltdsim.scenario.model import PID, Brake, Davis, Traction, Vehicle, VehicleBrake
+from ltdsim.scenario import PID, Brake, Davis, Traction, Vehicle, VehicleBrake
 
 from conftest import build
 
@@ -189,7 +189,7 @@ def test_table_widths_follow_their_column_names():
 
 
 def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
-    from ltdsim.scenario.model import Driver, Initial, Locomotive, Solver, Track
+    from ltdsim.scenario import Driver, Initial, Locomotive, Solver, Track
 
     masses = [1.2e5, 1.1e5, 8e4, 1.15e5, 7e4]
     vehicles = [{"name": f"v{i}", "mass": m, "length": 20.0 + i, "powered": i in (0, 3),
@@ -279,7 +279,7 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     np.testing.assert_array_equal(low2.prof_y, [1e5, -2e4])
     # solver.record: the widths of the kernel's record arrays (0: not recorded)
     import importlib
-    sim = importlib.import_module("ltdsim.results.simulate")
+    sim = importlib.import_module("ltdsim.engine.run")
     sel = sc.with_overrides({"solver.record": ["coupler_force", "velocity"]})
     rec = sim._buffers(lower(sel), 3, sim.recorded(sel))[0]
     assert rec["f"].shape == (3, nv - 1) and rec["v"].shape == (3, nv)
@@ -327,7 +327,7 @@ def test_every_fluid_brake_key_lands_in_its_column_or_row():
     in the vehicle table, the gas row, the pipe grid and the valve rows; the lumped
     brake's minimum_level in its schedule."""
     from ltdsim.physics.air.brakevalves import CV_PARAMS, DV_PARAMS
-    from ltdsim.scenario.model import Air, FluidBrake
+    from ltdsim.scenario import Air, FluidBrake
 
     d = scenario_dict()
     d["vehicles"][1]["brake"].update(piston_area=0.071, return_spring=1503.0,

@@ -28,7 +28,7 @@ from pathlib import Path
 import pytest
 
 from ltdsim.analysis.gears import impact
-from ltdsim.scenario.model import CouplerParams
+from ltdsim.scenario import CouplerParams
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "src" / "ltdsim"

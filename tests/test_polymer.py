@@ -28,7 +28,7 @@ from hypothesis import strategies as st
 from numba import njit
 
 from ltdsim.physics.gears.polymer import polymer_gear
-from ltdsim.scenario.model import load_gear_preset
+from ltdsim.data import load_preset
 
 PRESET = "polymer-heavy-haul"
 #: the law's parameters in the order :func:`polymer_gear` takes them
@@ -38,7 +38,7 @@ LAW_KEYS = ("preload", "initial_stiffness", "force_at_travel", "travel", "expone
 
 def gear():
     """The preset's keys as a dict (floats)."""
-    return {k: v for k, v in load_gear_preset(PRESET).items() if k != "model"}
+    return {k: v for k, v in load_preset("gears", PRESET).items() if k != "model"}
 
 
 def law(p):
@@ -80,7 +80,7 @@ def factors(p, v):
 
 @njit(cache=False)
 def _stage(f1, x, v, q, k_locked, rate, ks):
-    f, df1 = polymer_gear(f1, x, v, q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8],
+    f, df1 = polymer_gear(f1, x, v, (q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8]),
                           k_locked, rate, ks)
     return f, df1
 
@@ -363,7 +363,7 @@ def test_impact_through_simulate(v0):
     equals the energy the coupling absorbed, and its peak force, travel and energy agree
     with this file's own driver of the law."""
     from ltdsim.analysis.gears import impact
-    from ltdsim.scenario.model import CouplerParams
+    from ltdsim.scenario import CouplerParams
 
     p = gear()
     tau, m = 2e-3, 100e3

@@ -1,5 +1,5 @@
 """A second solver of the benchmark's train: the plain hand-written numba kernel of
-benchmarks/_reference_kernel.py (its own stepping, force balance, look-ups and
+benchmarks/reference_kernel.py (its own stepping, force balance, look-ups and
 recording, read from the Scenario rather than from ltdsim's lowered tables) against
 ``ltdsim.simulate()``. Agreement to round-off shows the benchmark times the same train."""
 
@@ -13,8 +13,7 @@ import ltdsim
 
 from conftest import PAPER, ROOT
 
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import _reference_kernel
+import reference_kernel
 import bench_kernel
 
 
@@ -24,7 +23,7 @@ def test_the_hand_written_kernel_gives_the_coupler_forces_of_simulate_in_draft_a
         "driver.force_profile": [[0.0, 0.0], [1.0, 8.63e5], [6.0, 8.63e5], [8.0, -4.0e5],
                                  [15.0, -4.0e5]],
         "solver.t_end": 15.0})
-    ref = _reference_kernel.simulate(sc)
+    ref = reference_kernel.simulate(sc)
     ds = ltdsim.simulate(sc)
     sim = ds.coupler_force.values
     assert sim.shape == ref.shape == (15001, 9)
@@ -40,7 +39,7 @@ def test_a_run_recording_the_coupler_forces_only_gives_the_hand_written_kernels_
             "driver.force_profile": [[0.0, 0.0], [1.0, 8.63e5], [4.0, 8.63e5],
                                      [5.0, -4.0e5], [10.0, -4.0e5]],
             "solver.t_end": 10.0}))
-    ref = _reference_kernel.simulate(sc)
+    ref = reference_kernel.simulate(sc)
     ds = ltdsim.simulate(sc)
     assert "position" not in ds and "acceleration" not in ds
     sim = ds.coupler_force.values

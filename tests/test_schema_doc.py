@@ -18,7 +18,7 @@ import pytest
 from pydantic import BaseModel, ConfigDict, Field
 
 from ltdsim.scenario import doc as schemadoc
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "scenario.md"
 

@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import ltdsim
-from ltdsim.reference import make_rhs
+from reference_rhs import make_rhs
 
 from conftest import ROOT, build, smooth_chain, train_dict
 

@@ -8,13 +8,13 @@ Quick start::
     ds.coupler_force.sel(coupler=0).plot()
 """
 
-__version__ = "0.1.0"
+from ltdsim._version import __version__  # noqa: E402,F401
 
 from ltdsim import _jitcache  # noqa: E402,F401  (must run before any numba function is defined)
 
 from ltdsim.errors import LtdsimError, ScenarioError, SimulationError  # noqa: E402
 from ltdsim.results.io import load_result, save_result  # noqa: E402
-from ltdsim.scenario.model import Scenario, load_scenario  # noqa: E402
+from ltdsim.scenario import Scenario, load_scenario  # noqa: E402
 from ltdsim.results.simulate import simulate  # noqa: E402
 
 __all__ = [

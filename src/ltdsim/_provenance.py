@@ -6,7 +6,7 @@ import hashlib
 from functools import cache
 from pathlib import Path
 
-from ltdsim import __version__
+from ltdsim._version import __version__
 
 #: the packages and modules that only present results: editing them changes no computed
 #: number (paths relative to the package)

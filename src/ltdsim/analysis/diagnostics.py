@@ -14,13 +14,14 @@ is the measurement of one signal's swing and period; :func:`hunt_figure` draws i
 
 from __future__ import annotations
 
-import json
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
+
+from ltdsim.results.io import scenario_of
 
 #: Overrides that turn scenarios/paper.toml back into the reading ltdsim used before:
 #: a reference profile with sharp corners (0.8 m/s^2 from rest to 16.72 m/s at 20.9 s,
@@ -139,12 +140,6 @@ def reference_corners(profile) -> pd.DataFrame:
         drop=True)
 
 
-def _scenario(ds: xr.Dataset, scenario: Scenario | None) -> Scenario:
-    if scenario is not None:
-        return scenario
-    return Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
-
-
 def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
                          window: tuple[float, float] | None = None,
                          reference_travel: float = 0.083,
@@ -189,7 +184,7 @@ def base_run_diagnostics(ds: xr.Dataset, scenario: Scenario | None = None,
     from ltdsim.analysis.modal import chain_modes
     from ltdsim.results.summary import gear_travel_check
 
-    sc = _scenario(ds, scenario)
+    sc = scenario_of(ds, scenario)
     a, b = cruise_window(ds) if window is None else window
     sel = ds.sel(time=slice(a, b))
     t = sel.time.values
@@ -315,55 +310,3 @@ def closed_loop_modes(scenario: Scenario, stiffness: str | float = "draft",
                          "decay_time_s": decay[order]})
 
 
-def hunt_figure(results, path, t_range: tuple[float, float] = (0.0, 120.0),
-                reference_travel: float = 0.083):
-    """The mechanism of a ringing run in three panels, one line per run: the acceleration
-    the speed reference demands (m/s^2, its slope), the locomotive force (kN) and the
-    first coupler's gear deflection beyond its slack (mm, with the reference travel).
-
-    Parameters
-    ----------
-    results : mapping of label -> xarray.Dataset
-        Results of :func:`ltdsim.simulate` in speed mode (e.g. the study's train with
-        two reference profiles).
-    path : str or Path
-        Image file to write (PNG, SVG or PDF).
-    t_range : (float, float)
-        Time window shown, s.
-    reference_travel : float
-        Travel drawn as a dashed line, m (default 0.083 m, AAR 3-1/4 in).
-
-    Returns the path written.
-    """
-    from ltdsim.viz.plotting import _save, plt
-
-    fig, axes = plt.subplots(3, 1, figsize=(11, 8.5), sharex=True, constrained_layout=True)
-    a, b = t_range
-    for k, (label, ds) in enumerate(results.items()):
-        sc = _scenario(ds, None)
-        sel = ds.sel(time=slice(a, b))
-        t = sel.time.values
-        colour = f"C{k}"
-        vref = sel.speed_reference.values
-        axes[0].plot(t[1:], np.diff(vref) / np.diff(t), color=colour, lw=1.2, label=label)
-        axes[1].plot(t, sel.traction_force.values / 1e3, color=colour, lw=0.9, label=label)
-        h = 0.5 * sc.coupler(0).slack
-        d = sel.coupler_deflection.values[:, 0]
-        beyond = np.where(d > h, d - h, np.where(d < -h, d + h, 0.0))
-        axes[2].plot(t, beyond * 1e3, color=colour, lw=0.9, label=label)
-    for sign in (1, -1):
-        axes[2].axhline(sign * reference_travel * 1e3, color="k", ls="--", lw=0.8)
-    axes[2].text(b, reference_travel * 1e3, f"±{reference_travel * 1e3:.0f} mm: a real gear's "
-                 "travel (AAR 3-1/4 in) ", va="bottom", ha="right", fontsize=9)
-    axes[0].set_ylabel("reference acceleration\n[m/s²]")
-    axes[1].set_ylabel("locomotive force [kN]")
-    axes[2].set_ylabel("coupler 1 gear deflection\nbeyond slack [mm]\n(+ draft, − buff)")
-    axes[2].set_xlabel("time [s]")
-    axes[0].set_title("What the reference demands, what the locomotive does, what the first "
-                      "gear takes", fontsize=11)
-    for ax in axes:
-        ax.grid(alpha=0.3)
-        ax.tick_params(labelsize=9)
-    axes[0].legend(fontsize=9, loc="upper right")
-    axes[2].set_xlim(a, b)
-    return _save(fig, path)

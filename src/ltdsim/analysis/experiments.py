@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 
 
 def running_resistance(scenario: Scenario, speed: float) -> float:

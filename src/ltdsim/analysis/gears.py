@@ -1,12 +1,9 @@
-"""A single draft gear on a test rig: prescribed deflection, or a mass driven by a force.
+"""A single draft gear tested: prescribed deflection, a mass driven by a force, a
+wagon's impact, catalogue ratings.
 
-The rig uses the train's own coupler code (:func:`ltdsim.engine.couplers.coupler_force`,
-the coupler lowered by :func:`~ltdsim.engine.couplers.lower_coupler`), Runge-Kutta
-tableaux and stage routine (:func:`ltdsim.engine.kernel._stages`, given the rig's right-hand
-side), so a gear behaves here exactly as it does in a train. The compiled rig
-:func:`_rig` takes named structures: the state, the :class:`Rig` (the coupler and its
-drive), the step (:class:`ltdsim.engine.kernel.FixedStep`), its :class:`RigWork` and
-:class:`RigOutputs`.
+The rig (:mod:`ltdsim.engine.rig`) runs the train kernel's own coupler code and stage
+routine, so a gear behaves here exactly as it does in a train; every gear command and
+the model reduction test a coupling (its ``gears`` in series included) through it.
 
 * ``drive_deflection``: the gear deflection ``d(t)`` (and its rate) is prescribed; the
   gear's internal states are integrated; returns its force. This draws force-deflection
@@ -19,172 +16,11 @@ drive), the step (:class:`ltdsim.engine.kernel.FixedStep`), its :class:`RigWork`
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import NamedTuple
-
 import numpy as np
 import xarray as xr
-from numba import njit
 
-from ltdsim.engine.couplers import (
-    N_GEAR_STATES,
-    coupler_force,
-    lower_coupler,
-    released_force,
-)
-from ltdsim.engine.integrators import get_tableau
-from ltdsim.engine.kernel import Couplers, FixedStep, _advance, _interp, _stages
-from ltdsim.scenario.model import CouplerParams, Scenario
-
-MODE_DEFLECTION, MODE_FORCE = 0, 1
-#: the rig's state ``y``: deflection m (+ draft), its rate m/s, then the gear's states
-#: from ``Y_GEAR`` on (as in a train, :mod:`ltdsim.engine.kernel`)
-Y_D, Y_V, Y_GEAR = 0, 1, 2
-#: search cursors of the drive's lookups (:class:`RigWork` ``hints``): deflection,
-#: deflection rate, force
-H_D, H_V, H_F = 0, 1, 2
-
-
-class Rig(NamedTuple):
-    """One coupler on the rig and what drives it."""
-
-    couplers: Couplers  # the coupler, as coupler 0 of a train (kernel.Couplers)
-    tables: np.ndarray  # the table store its parameters point into (kernel.Train.tables)
-    mode: int  # MODE_DEFLECTION or MODE_FORCE
-    mass: float  # driven mass, kg (force mode)
-    t: np.ndarray  # times of the drive's samples, s
-    a: np.ndarray  # deflection d(t), m (deflection mode), or force F(t), N (force mode)
-    b: np.ndarray  # deflection rate d'(t), m/s (deflection mode)
-
-
-class RigWork(NamedTuple):
-    """Scratch arrays of :func:`_rig`."""
-
-    K: np.ndarray  # stage derivatives, stage s at K[s * ny:(s + 1) * ny]
-    ytmp: np.ndarray  # (ny,) stage state, then the step's increment
-    hints: np.ndarray  # (3,) int64 search cursors, H_* slots
-
-
-class RigOutputs(NamedTuple):
-    """The rig's record, one element per step (and the final state)."""
-
-    t: np.ndarray  # time, s
-    d: np.ndarray  # deflection, m (+ draft)
-    v: np.ndarray  # deflection rate, m/s
-    f: np.ndarray  # gear force, N (+ tension)
-
-
-@njit(cache=True, _nrt=False, forceinline=True)
-def _rig_rhs(t, y, dy, p):
-    """Right-hand side of the rig at ``(t, y)`` (in the form :func:`ltdsim.engine.kernel._stages`
-    calls, ``p = (rig, hints)``), written to ``dy``. Deflection mode: the deflection and
-    its rate are the drive's, ``y[Y_D]``/``y[Y_V]`` stay still; force mode: the mass
-    ``m d'' = F(t) - T(d, d')``. Returns the deflection (m), its rate (m/s) and the gear
-    force (N, + tension)."""
-    rig, hints = p
-    cp = rig.couplers
-    # the coupler's index typed int64, not as the literal 0 (a type of its own): the rig
-    # then uses the gear function the train kernels compiled (coupler_models._gear)
-    j = np.int64(0)
-    if rig.mode == MODE_DEFLECTION:
-        d = _interp(rig.t, rig.a, t, hints, H_D)
-        dd = _interp(rig.t, rig.b, t, hints, H_V)
-    else:
-        d = y[Y_D]
-        dd = y[Y_V]
-    f = coupler_force(j, cp.model[j], d, dd, y, Y_GEAR, dy, Y_GEAR, cp.par, rig.tables)
-    if rig.mode == MODE_DEFLECTION:
-        dy[Y_D] = 0.0
-        dy[Y_V] = 0.0
-    else:
-        dy[Y_D] = dd
-        dy[Y_V] = (_interp(rig.t, rig.a, t, hints, H_F) - f) / rig.mass
-    return d, dd, f
-
-
-@njit(cache=True, _nrt=False)
-def _rig(y, rig, fs, w, out):
-    """Integrate the rig from ``y`` (``[d, d', gear states]``, updated in place) with
-    the fixed-step method ``fs`` (:class:`ltdsim.engine.kernel.FixedStep`; its ``record_every``
-    is not read: the rig records every step), ``rig`` a :class:`Rig`, ``w`` its
-    :class:`RigWork`; writes the :class:`RigOutputs` ``out`` at every step and at the
-    end. The stages are the train kernels' (:func:`ltdsim.engine.kernel._stages`)."""
-    ny = y.shape[0]
-    ns = fs.b.shape[0]
-    dt = fs.dt
-    K = w.K
-    p = (rig, w.hints)
-    for k in range(fs.n_steps + 1):
-        t = k * dt
-        d, dd, f = _rig_rhs(t, y, K[0:ny], p)
-        out.t[k] = t
-        out.d[k] = d
-        out.v[k] = dd
-        out.f[k] = f
-        if k == fs.n_steps:
-            break
-        _stages(_rig_rhs, p, t, y, dt, fs.A, fs.c, ns, K, w.ytmp)
-        _advance(y, dt, fs.b, ns, K, w.ytmp)
-
-
-def _lowered_gear(params: CouplerParams):
-    """Kernel arrays for one coupler: its model code, its row of the coupler table
-    (shape ``(1, N_CCOL)``) and the table store, lowered by
-    :func:`ltdsim.engine.couplers.lower_coupler` as a train's coupler is (neutral
-    start)."""
-    tables = [0.0]
-    one = lower_coupler(params, tables)
-    return one.code, one.row.reshape(1, -1).copy(), np.array(tables, dtype=float)
-
-
-@dataclass
-class _Run:
-    time: np.ndarray
-    deflection: np.ndarray
-    rate: np.ndarray
-    force: np.ndarray
-
-
-def rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
-             f0=0.0) -> tuple:
-    """Arguments of :func:`_rig` for :func:`integrate_rig`: ``(y, rig, step, work,
-    outputs)``, the last a :class:`RigOutputs` (time s, deflection m, rate m/s, force
-    N)."""
-    tab = get_tableau(method)
-    n_steps = int(round(t_end / dt))
-    ny = Y_GEAR + N_GEAR_STATES
-    y = np.zeros(ny)
-    y[Y_GEAR] = f0
-    rig = Rig(couplers=Couplers(model=np.array([model], dtype=np.int64), par=cpl,
-                                uniform=int(model)),
-              tables=ctab, mode=int(mode), mass=float(mass),
-              t=np.ascontiguousarray(t_tab, dtype=float),
-              a=np.ascontiguousarray(a_tab, dtype=float),
-              b=np.ascontiguousarray(b_tab, dtype=float))
-    fs = FixedStep(dt=float(dt), n_steps=n_steps, record_every=1, A=tab.A, b=tab.b, c=tab.c)
-    work = RigWork(K=np.zeros(tab.stages * ny), ytmp=np.zeros(ny),
-                   hints=np.zeros(3, dtype=np.int64))
-    out = RigOutputs(*(np.empty(n_steps + 1) for _ in range(4)))
-    return y, rig, fs, work, out
-
-
-def integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
-                  f0=0.0) -> _Run:
-    """Run the rig for lowered coupler arrays (``_lowered_gear``); ``f0`` is the initial
-    internal force of a hysteretic gear, N."""
-    args = rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method, f0)
-    _rig(*args)
-    out = args[-1]
-    return _Run(out.t, out.d, out.v, out.f)
-
-
-def _run_rig(params, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method) -> _Run:
-    model, cpl, ctab = _lowered_gear(params)
-    # a released hysteretic gear starts on its loading curve (its internal force, the
-    # first state)
-    f0 = released_force(params)
-    return integrate_rig(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, method,
-                         f0)
+from ltdsim.engine.rig import MODE_DEFLECTION, MODE_FORCE, _Run, run_rig
+from ltdsim.scenario import CouplerParams, Scenario
 
 
 def _dataset(run: _Run, **attrs) -> xr.Dataset:
@@ -218,7 +54,7 @@ def drive_deflection(params: CouplerParams, t, d, *, dt: float = 1e-4, method: s
     t = np.asarray(t, dtype=float)
     d = np.asarray(d, dtype=float)
     rate = np.gradient(d, t)
-    run = _run_rig(params, MODE_DEFLECTION, t, d, rate, 1.0, t[-1] - t[0], dt, method)
+    run = run_rig(params, MODE_DEFLECTION, t, d, rate, 1.0, t[-1] - t[0], dt, method)
     return _dataset(run, rig="prescribed deflection", model=params.model)
 
 
@@ -230,7 +66,7 @@ def drive_force(params: CouplerParams, t, force, *, mass: float, dt: float = 1e-
     rate and force over time.
     """
     t = np.asarray(t, dtype=float)
-    run = _run_rig(params, MODE_FORCE, t, np.asarray(force, dtype=float), t * 0.0, mass,
+    run = run_rig(params, MODE_FORCE, t, np.asarray(force, dtype=float), t * 0.0, mass,
                    t[-1] - t[0], dt, method)
     return _dataset(run, rig="mass on a gear, force driven", model=params.model, mass_kg=mass)
 
@@ -413,7 +249,7 @@ def impact(params: CouplerParams, speed: float, *, mass_moving: float = 90000.0,
     absorbed in the coupling (J, the integral of force times deflection rate), momentum
     before and after (kg m/s), and the dataset of the run.
     """
-    import ltdsim
+    from ltdsim.results.simulate import simulate
 
     sc = Scenario.from_dict({
         "name": "impact",
@@ -425,7 +261,7 @@ def impact(params: CouplerParams, speed: float, *, mass_moving: float = 90000.0,
         "driver": {"mode": "force", "force_profile": [[0.0, 0.0]]},
         "initial": {"velocities": [0.0, float(speed)], "couplers": "bunched"},
     }, "impact")
-    ds = ltdsim.simulate(sc)
+    ds = simulate(sc)
     f = ds.coupler_force.isel(coupler=0).values
     d = ds.coupler_deflection.isel(coupler=0).values
     v = ds.velocity.values

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 from scipy import linalg
 
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 
 
 def chain_stiffness(k) -> np.ndarray:
@@ -125,32 +125,3 @@ def train_modes(scenario: Scenario, branch="draft", lead: str = "free") -> pd.Da
     return table
 
 
-def save_mode_shapes(table: pd.DataFrame, path, title: str = ""):
-    """Mode-shape figure (the study's Fig. 8): one panel per mode (the rigid-body mode of
-    a free train left out), its amplitude along the train, normalised to the largest,
-    with its frequency; ``title`` should say which stiffness was used."""
-    from ltdsim.viz.plotting import WIDTH, _save, plt
-
-    modes = table[table.frequency_hz > 1e-6]
-    shapes = modes.drop(columns="frequency_hz").values
-    n = shapes.shape[1]
-    cols = 3 if len(modes) > 4 else max(len(modes), 1)
-    rows = -(-len(modes) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(WIDTH, 2.2 * rows + 1.0), squeeze=False,
-                             sharex=True, sharey=True, constrained_layout=True)
-    x = np.arange(1, n + 1)
-    for k, (row, f) in enumerate(zip(shapes, modes.frequency_hz)):
-        ax = axes.flat[k]
-        ax.axhline(0.0, color="0.5", lw=0.8)
-        ax.plot(x, row / np.abs(row).max(), "o-", ms=4, lw=1.2, color="tab:blue")
-        ax.set_title(f"mode {k + 1}: {f:.2f} Hz", loc="left")
-        ax.set_ylim(-1.15, 1.15)
-        ax.xaxis.set_major_locator(plt.MaxNLocator(integer=True))
-    for ax in axes.flat[len(modes):]:
-        ax.set_visible(False)
-    for ax in axes[-1]:
-        ax.set_xlabel("vehicle (1 = lead)")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("displacement [-]")
-    fig.suptitle(title or "mode shapes")
-    return _save(fig, path)

@@ -25,10 +25,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from ltdsim.analysis.gears import MODE_FORCE, STUDY_SINES, _lowered_gear, integrate_rig, sine_chain
+from ltdsim.analysis.gears import STUDY_SINES, sine_chain
+from ltdsim.engine.rig import MODE_FORCE, _lowered_gear, integrate_rig
 from ltdsim.analysis.identify import fit_percent
 from ltdsim.physics.gears.couplers import coupler_simplified
-from ltdsim.scenario.model import CouplerParams, SimplifiedCoupler
+from ltdsim.scenario import CouplerParams, SimplifiedCoupler
 
 #: fitted parameter names (keys of a simplified coupler) and default search bounds
 PARAMETERS = ("damping", "k1", "k2", "k3", "v_c")
@@ -151,10 +152,22 @@ class Reduction:
         return "\n".join(lines) + "\n"
 
 
+@dataclass(frozen=True)
+class Search:
+    """Settings of the differential evolution (``scipy.optimize.differential_evolution``):
+    relative tolerance ``tol`` (-), at most ``maxiter`` generations, ``popsize`` times as
+    many candidates as parameters, random ``seed``."""
+
+    tol: float = 1e-4
+    maxiter: int = 1000
+    popsize: int = 15
+    seed: int = 0
+
+
 def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None,
                 mass: float = DEFAULT_MASS, dt: float = 5e-4, bounds: dict | None = None,
-                workers: int = 1, tol: float = 1e-4, maxiter: int = 1000, popsize: int = 15,
-                seed: int = 0, progress=None, fade: str = "deflection") -> Reduction:
+                workers: int = 1, search: Search = Search(), progress=None,
+                fade: str = "deflection") -> Reduction:
     """Fit a simplified coupler to ``target``.
 
     Parameters
@@ -176,8 +189,8 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
         Parallel processes for the population (-1: all cores). They are spawned and end
         with this process even when it is killed; a script that asks for more than one
         runs its work under ``if __name__ == "__main__":``.
-    tol, maxiter, popsize, seed
-        Passed to ``differential_evolution`` (relative tolerance, generations).
+    search : Search
+        The optimiser's tolerance, generations, population and seed.
     progress : callable, optional
         Called as ``progress(generation, maxiter, best_cost)`` after each generation.
     fade : {"deflection", "rate"}
@@ -206,11 +219,12 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
     def callback(intermediate_result):
         generation[0] += 1
         if progress is not None:
-            progress(generation[0], maxiter, float(intermediate_result.fun))
+            progress(generation[0], search.maxiter, float(intermediate_result.fun))
 
     def optimise(mapper):
-        return differential_evolution(objective, log_bounds, tol=tol, maxiter=maxiter,
-                                      popsize=popsize, seed=seed, workers=mapper,
+        return differential_evolution(objective, log_bounds, tol=search.tol,
+                                      maxiter=search.maxiter, popsize=search.popsize,
+                                      seed=search.seed, workers=mapper,
                                       updating="deferred" if workers != 1 else "immediate",
                                       polish=True, callback=callback)
 

@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import fft, signal
 
+from ltdsim.results.io import scenario_of
+
 
 def amplitude_spectrum(x, dt: float, detrend="constant", window: str = "boxcar"):
     """Single-sided amplitude spectrum of samples ``x`` taken every ``dt`` seconds.
@@ -136,16 +138,13 @@ def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
     :func:`ltdsim.analysis.modal.train_modes` on the draft and buff branches, the couplings as the
     kernel simulates them; couplers whose model has no linearised stiffness are matched
     to none."""
-    import json
 
     import pandas as pd
 
     from ltdsim.analysis.modal import train_modes
     from ltdsim.analysis.phases import phases_of
-    from ltdsim.scenario.model import Scenario
 
-    if scenario is None:
-        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+    scenario = scenario_of(ds, scenario)
     modes = {}
     for branch in ("draft", "buff"):
         try:
@@ -182,13 +181,10 @@ def band_share(ds, scenario=None, couplers=(0, 7, 8), f_split: float = 4.0,
     lies below ``f_split`` Hz, per phase: ``{phase: {coupler index: share}}`` (Parseval:
     sums of squared amplitudes of the spectrum with its linear trend removed). The study finds the coupler
     forces' content within 0-4 Hz (§5.2)."""
-    import json
 
     from ltdsim.analysis.phases import phases_of
-    from ltdsim.scenario.model import Scenario
 
-    if scenario is None:
-        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+    scenario = scenario_of(ds, scenario)
     dt = float(ds.time[1] - ds.time[0])
     out = {}
     for name, a, b in phases_of(ds, scenario):
@@ -201,89 +197,3 @@ def band_share(ds, scenario=None, couplers=(0, 7, 8), f_split: float = 4.0,
     return out
 
 
-def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
-                    lead: str = "held", span_db: float = 50.0):
-    """Two figures of the coupler forces ``couplers`` (indices from 0, labelled from 1):
-
-    * ``spectra_per_phase.png``: amplitude spectra per phase up to ``f_max`` Hz, with the
-      train's modal bands on the buff (k1) and draft (k2 + k3) branches shaded;
-    * ``spectrogram.png``: a time-frequency map of each over the whole run, linearly
-      detrended per 10 s window (the steady force is not an oscillation), in dB
-      relative to 1 kN over the top ``span_db`` dB, up to the frequency below which 99.5 %
-      of the content lies.
-
-    Returns the files."""
-    import json
-    from pathlib import Path
-
-    from ltdsim.analysis.modal import train_modes
-    from ltdsim.analysis.phases import phases_of
-    from ltdsim.viz.plotting import HIGHLIGHT_COLOURS, WIDTH, _save, plt
-    from ltdsim.scenario.model import Scenario
-
-    if scenario is None:
-        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
-    folder = Path(folder)
-    dt = float(ds.time[1] - ds.time[0])
-    phases = phases_of(ds, scenario)
-    bands = {}
-    for which, colour in (("buff", "tab:cyan"), ("draft", "tab:olive")):
-        try:
-            f = train_modes(scenario, which, lead).frequency_hz.values
-            bands[which] = (f[f > 0].min(), f.max(), colour)
-        except ValueError:  # couplers without k1/k2/k3
-            pass
-    files = []
-    cols = 2 if len(phases) > 1 else 1
-    rows = -(-len(phases) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(WIDTH, 3.4 * rows + 0.8), squeeze=False,
-                             constrained_layout=True)
-    for k, (name, a, b) in enumerate(phases):
-        ax = axes.flat[k]
-        w = ds.coupler_force.sel(time=slice(a, b - 0.5 * dt))
-        for which, (lo, hi, colour) in bands.items():
-            ax.axvspan(lo, hi, color=colour, alpha=0.15, lw=0,
-                       label=f"{which}-branch modes {lo:.2f}-{hi:.2f} Hz")
-        for j, c in enumerate(couplers):
-            f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt, detrend="linear")
-            band = f <= f_max
-            ax.plot(f[band], amp[band] / 1e3, lw=1.0, color=HIGHLIGHT_COLOURS[j % 5],
-                    label=f"coupler {c + 1}")
-        ax.set_title(f"{name} ({b - a:.0f} s, lines {1 / (b - a):.2g} Hz apart)", loc="left")
-        ax.set_xlabel("frequency [Hz]")
-        ax.set_ylabel("amplitude [kN]")
-        ax.set_xlim(0, f_max)
-    for ax in axes.flat[len(phases):]:
-        ax.set_visible(False)
-    axes.flat[0].legend(loc="upper right")
-    fig.suptitle("Coupler force spectra per phase (linear trend removed), with the train's modal "
-                 "bands (lead held)")
-    files.append(_save(fig, folder / "spectra_per_phase.png"))
-
-    maps = []
-    for c in couplers:
-        f, t, z = spectrogram(ds.coupler_force.isel(coupler=c).values, dt, detrend="linear")
-        maps.append((c, f, t, z))
-    if maps:
-        power = sum(np.sum(z[f <= f_max] ** 2, axis=1) for _, f, _, z in maps)
-        f = maps[0][1][maps[0][1] <= f_max]
-        share = np.cumsum(power) / power.sum() if power.sum() > 0 else np.ones_like(f)
-        f_top = min(f_max, max(1.0, float(np.ceil(1.2 * f[np.searchsorted(share, 0.995)]))))
-        top = max(float(np.max(z)) for *_, z in maps) / 1e3
-        ref = 20 * np.log10(max(top, 1e-9))
-        fig, axes = plt.subplots(len(maps), 1, figsize=(WIDTH, 2.4 * len(maps) + 1.0),
-                                 squeeze=False, sharex=True, constrained_layout=True)
-        for k, (c, f, t, z) in enumerate(maps):
-            band = f <= f_top
-            db = 20 * np.log10(np.maximum(z[band] / 1e3, 1e-12))
-            mesh = axes[k, 0].pcolormesh(t + float(ds.time[0]), f[band], db, shading="auto",
-                                         cmap="magma", vmin=ref - span_db, vmax=ref,
-                                         rasterized=True)
-            axes[k, 0].set_ylabel(f"coupler {c + 1}\nfrequency [Hz]")
-            axes[k, 0].grid(False)
-        fig.colorbar(mesh, ax=axes[:, 0], label="amplitude [dB re 1 kN]", aspect=30, pad=0.01)
-        axes[-1, 0].set_xlabel("time [s] (window centres)")
-        fig.suptitle(f"Time-frequency map of coupler forces (10 s Hann windows, trend removed; "
-                     f"0-{f_top:g} Hz holds 99.5 % of the content below {f_max:g} Hz)")
-        files.append(_save(fig, folder / "spectrogram.png"))
-    return files

@@ -35,7 +35,7 @@ def package_version() -> str:
     try:
         return metadata.version("ltdsim")
     except metadata.PackageNotFoundError:
-        from ltdsim import __version__
+        from ltdsim._version import __version__
 
         return __version__
 
@@ -86,7 +86,7 @@ def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
     import json
 
     from ltdsim.results.io import load_result
-    from ltdsim.scenario.model import Scenario, load_scenario
+    from ltdsim.scenario import Scenario, load_scenario
 
     if file.suffix == ".nc":
         if overrides:
@@ -103,7 +103,7 @@ def _result_or_scenario(file: Path, case: Optional[str], run: bool = True,
     sc = load_scenario(file, case=case)
     if overrides:
         sc = sc.with_overrides(parse_set(overrides), source="--set")
-    return (_simulate(sc, quiet, file) if run else None), sc
+    return (_simulate(sc, quiet, file, "--set" if overrides else None) if run else None), sc
 
 
 def _label(sc) -> str:
@@ -111,17 +111,21 @@ def _label(sc) -> str:
     return sc.name + (f" [{sc.case}]" if sc.case else "")
 
 
-def _simulate(sc, quiet: bool = False, source=None):
-    """Simulate ``sc``: refuse a recording too large for the memory available (naming
-    ``source``, the scenario file), warn about a step near the method's largest stable
-    step, compile or load its kernel ("compiling (first run only)"), then a progress bar
-    of simulated seconds on stderr (plain lines in a log)."""
-    from ltdsim.results.simulate import check_memory, simulate
-    from ltdsim.engine.preflight import step_limit, warning
+def _simulate(sc, quiet: bool = False, source=None, step_source=None):
+    """Simulate ``sc``: refuse a fixed step above the method's largest stable step
+    (naming ``step_source``, the ``--set`` that asked for it, or else ``source``) and a
+    recording too large for the memory available (naming ``source``, the scenario file),
+    warn about a step near the largest stable one, compile or load its kernel
+    ("compiling (first run only)"), then a progress bar of simulated seconds on stderr
+    (plain lines in a log)."""
+    from ltdsim.engine.preflight import check, warning
+    from ltdsim.engine.run import check_memory
     from ltdsim.engine.warmup import scenario_kernels, warm_up
+    from ltdsim.results.simulate import simulate
 
+    lim = check(sc, step_source or (None if source is None else str(source)))
     check_memory(sc, source=None if source is None else str(source))
-    near = warning(step_limit(sc))
+    near = warning(lim)
     if near:
         err_console.print(f"[yellow]warning:[/] {escape(near)}", soft_wrap=True)
     with Display(err_console, quiet=quiet) as show:
@@ -332,7 +336,7 @@ def run(
 ) -> None:
     """Simulate one scenario (optionally one named case) and summarise coupler forces."""
     from ltdsim.results.io import save_result
-    from ltdsim.scenario.model import load_scenario
+    from ltdsim.scenario import load_scenario
     from ltdsim.results.summary import coupler_summary, critical_rows, run_summary, travel_warning
 
     try:
@@ -359,7 +363,7 @@ def run(
             _check_output(curving_plot, "--plot (the curving figure beside it)",
                           image_suffixes(), inputs=(file,))
         label = _label(sc)  # plain text: _table keeps it so
-        ds = _simulate(sc, quiet, file)
+        ds = _simulate(sc, quiet, file, "--set" if set_ else None)
     except (ScenarioError, SimulationError) as exc:
         _fail(exc)
         return
@@ -601,7 +605,8 @@ app.add_typer(gear_app, name="gear")
 def _gear_params(preset: Optional[str], scenario: Optional[Path], coupler: int):
     from pydantic import ValidationError
 
-    from ltdsim.scenario.model import CouplerParams, _problems, gear_presets, load_scenario
+    from ltdsim.scenario import CouplerParams, gear_presets, load_scenario
+    from ltdsim.scenario.messages import _problems
 
     if (preset is None) == (scenario is None):
         raise ScenarioError("gear", [("", "give either --preset NAME or --scenario FILE "
@@ -728,7 +733,7 @@ def gear_ratings(
     import numpy as np
 
     from ltdsim.analysis.gears import drive_deflection, loop_energy, table_from_ratings, table_toml
-    from ltdsim.scenario.model import CouplerParams
+    from ltdsim.scenario import CouplerParams
 
     try:
         _check_output(toml, "--toml", (".toml",))
@@ -801,7 +806,7 @@ def curve_limit_cmd(
 
     from ltdsim.results.curving import curve_limit
     from ltdsim.physics.curving import cant_deficiency
-    from ltdsim.scenario.model import Curving, load_scenario
+    from ltdsim.scenario import Curving, load_scenario
 
     try:
         _check_number("--radius", radius, 20.0, 1e6, unit="m")
@@ -872,7 +877,7 @@ def reduce(
     toml: Annotated[Optional[Path], typer.Option(help="write the fitted coupler as TOML")] = None,
 ) -> None:
     """Fit the simplified coupler to a detailed gear under the study's chain of sines."""
-    from ltdsim.analysis.reduction import reduce_gear
+    from ltdsim.analysis.reduction import Search, reduce_gear
 
     try:
         _check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
@@ -896,8 +901,8 @@ def reduce(
                   TextColumn("cost {task.fields[cost]:.3e} N^2"), TimeElapsedColumn(),
                   console=err_console) as prog:
         task = prog.add_task("fit", total=maxiter, cost=float("nan"))
-        result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers, maxiter=maxiter,
-                             seed=seed, fade=fade,
+        result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers,
+                             search=Search(maxiter=maxiter, seed=seed), fade=fade,
                              progress=lambda g, n, c: prog.update(task, completed=g, cost=c))
     table = _table(f"Simplified coupler fitted to {preset or scenario}", ("parameter", "value"))
     units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m",
@@ -1006,7 +1011,7 @@ def sweep(
     if best is not None:
         console.print(f"best case by {best_by}: [bold]{escape(best)}[/]")
         if figures:
-            from ltdsim.analysis.phases import phase_figures
+            from ltdsim.viz.analysis import phase_figures
 
             sc = spec.scenario(next(c for c in spec.cases if c.id == best))
             files = phase_figures(_simulate(sc), output / "figures", sc, prefix=f"{best}_")
@@ -1054,7 +1059,8 @@ def phases(
 
     The phases are the scenario's phases tables; without them the whole run is one
     phase."""
-    from ltdsim.analysis.phases import critical_couplers, phase_figures, traction_check
+    from ltdsim.analysis.phases import critical_couplers, traction_check
+    from ltdsim.viz.analysis import phase_figures
 
     try:
         _check_folder(output)
@@ -1119,7 +1125,8 @@ def modal(
 ) -> None:
     """Natural frequencies and mode shapes of the train (study Fig. 8), linearised as the
     kernel simulates each coupling (its gears in series included: the key gears)."""
-    from ltdsim.analysis.modal import save_mode_shapes, train_modes
+    from ltdsim.analysis.modal import train_modes
+    from ltdsim.viz.analysis import save_mode_shapes
 
     try:
         _check_folder(output)
@@ -1178,7 +1185,8 @@ def spectrum(
     quiet: QuietOpt = False,
 ) -> None:
     """Coupler force spectra per phase (study Tables 6-7) and a spectrogram."""
-    from ltdsim.analysis.spectra import phase_spectra, spectra_figures
+    from ltdsim.analysis.spectra import phase_spectra
+    from ltdsim.viz.analysis import spectra_figures
 
     try:
         _check_folder(output)
@@ -1187,7 +1195,7 @@ def spectrum(
         if numbers is not None and not numbers:
             raise ValueError
         if file.suffix != ".nc":  # refuse bad numbers before simulating
-            from ltdsim.scenario.model import load_scenario
+            from ltdsim.scenario import load_scenario
 
             _check_couplers(numbers, load_scenario(file, case=case).n_couplers)
         ds, sc = _result_or_scenario(file, case, overrides=set_, quiet=quiet)

@@ -2,7 +2,7 @@
 
 A coupler model is four things:
 
-1. its schema class in :mod:`ltdsim.scenario.model` (one member of the discriminated union on
+1. its schema class in :mod:`ltdsim.scenario.couplers` (one member of the discriminated union on
    ``model``; its fields are the scenario keys, each with its unit);
 2. its entry here (:class:`CouplerModel` in :data:`MODELS`): name, integer code, its own
    columns of the coupler table, how a validated coupler lowers into them (and into the
@@ -155,9 +155,9 @@ def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
         ramp = max(delta, 1e-3)  # plate friction fades in and out over this travel, m
         engaged = plates_out(p, ramp)
         f_l, f_u, s_l, s_u = wedge_curves(
-            x, v, cpl[j, W_TA], cpl[j, W_TB], cpl[j, W_TG], cpl[j, W_G], cpl[j, W_C1],
-            cpl[j, W_C2], cpl[j, W_C3], cpl[j, W_H1], cpl[j, W_H2], cpl[j, W_H3], s_factor,
-            cpl[j, W_KM], cpl[j, W_XM0], cpl[j, W_KR], cpl[j, W_XR0], engaged,
+            x, v, (cpl[j, W_TA], cpl[j, W_TB], cpl[j, W_TG], cpl[j, W_G], cpl[j, W_C1],
+                   cpl[j, W_C2], cpl[j, W_C3]), (cpl[j, W_H1], cpl[j, W_H2], cpl[j, W_H3]),
+            s_factor, (cpl[j, W_KM], cpl[j, W_XM0], cpl[j, W_KR], cpl[j, W_XR0]), engaged,
             engaged if plates_carried(u, p, delta) else 0.0)
     elif model == M_TABLE:
         f_l, s_l = table_curve(ctab, int(cpl[j, TAB_LOAD]), int(cpl[j, TAB_NLOAD]), x)
@@ -314,8 +314,9 @@ def _wedge_slope(key: tuple) -> float:
     steepest = 0.0
     for loading in (1.0, 0.0):
         for plates in (0.0, 1.0):
-            f = wedge_gear_quasistatic(x, loading, *np.radians([alpha, beta, gamma]), h1,
-                                       h2, h3, s, k_m, x_m0, k_r, x_r0, gap, back, plates)
+            f = wedge_gear_quasistatic(x, loading, np.radians([alpha, beta, gamma]),
+                                       (h1, h2, h3), s, (k_m, x_m0, k_r, x_r0), gap, back,
+                                       plates)
             steepest = max(steepest, float(np.max(np.abs(np.diff(f) / np.diff(x)))))
     return steepest
 
@@ -336,8 +337,8 @@ def _wedge_released(c) -> float:
     from ltdsim.physics.gears.draftgear import wedge_gear_quasistatic
 
     return float(wedge_gear_quasistatic(
-        0.0, 1.0, *np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]), c.h1, c.h2, c.h3,
-        c.S if c.S is not None else c.S_table.values[0][0], c.k_m, c.x_m0, c.k_r, c.x_r0,
+        0.0, 1.0, np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]), (c.h1, c.h2, c.h3),
+        c.S if c.S is not None else c.S_table.values[0][0], (c.k_m, c.x_m0, c.k_r, c.x_r0),
         c.plate_gap, c.plate_backlash, 0.0))
 
 
@@ -406,7 +407,7 @@ class LoweredCoupler:
 
 def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
                   state_offset: int = 0) -> LoweredCoupler:
-    """Lower one validated coupler ``c`` (a member of ``ltdsim.scenario.model.Coupler``).
+    """Lower one validated coupler ``c`` (a member of ``ltdsim.scenario.couplers.Coupler``).
 
     Appends its curves to the flat table store ``tables``. ``sign0`` is the initial state
     of the coupling (0 neutral, +1 stretched, -1 bunched: it starts at the end of its slack);
@@ -506,8 +507,8 @@ def _wedge_unloading(c, x, branch):
     from ltdsim.physics.gears.draftgear import wedge_gear_quasistatic
 
     s = c.S if c.S is not None else c.S_table.values[0][0]
-    return wedge_gear_quasistatic(x, 0.0, *np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]),
-                                  c.h1, c.h2, c.h3, s, c.k_m, c.x_m0, c.k_r, c.x_r0,
+    return wedge_gear_quasistatic(x, 0.0, np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]),
+                                  (c.h1, c.h2, c.h3), s, (c.k_m, c.x_m0, c.k_r, c.x_r0),
                                   c.plate_gap, c.plate_backlash, -1.0)
 
 

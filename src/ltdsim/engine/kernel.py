@@ -51,7 +51,7 @@ that all share the simplified model (``Couplers.uniform``) run a loop of their o
 which the compiler knows the model and drops the dispatch and the gear code. Each was
 kept because it cut the instructions per step of the force-mode base train
 (benchmarks/bench_reference_instructions.py, against the hand-written kernel of
-benchmarks/_reference_kernel.py) with every result bit unchanged; a branch-free or
+benchmarks/reference_kernel.py) with every result bit unchanged; a branch-free or
 pre-checked peak tracking and a force balance in separate vectorisable passes measured
 worse and were left out.
 A vehicle's grade force and curve resistance are worked out when it enters a piece of
@@ -139,7 +139,6 @@ from ltdsim.engine.layout import (
     EV_TIME,
     EV_VALUE,
     I_CELLS,
-    I_CV,
     I_DV,
     I_EXH,
     I_NCP,
@@ -815,9 +814,10 @@ def _air_rates(t, y, events, n_events, tr, w, dy):
                                   r_gas, temp, atm, r_lin, dy[zb:zb + N_CV])
         inflow[cell] -= draw
         exhausted += out
-    leak = pipe_rates(p, y[zq:zq + nc - 1], inflow, gas[A_AREA], air.dx_cell, air.dx_face,
-                      gas[A_DIAM], gas[A_ROUGH], gas[A_VISC], air.leak, gamma, r_gas, temp,
-                      atm, r_lin, dy[zp:zq], dy[zq:zq + nc - 1])
+    leak = pipe_rates(p, y[zq:zq + nc - 1], inflow,
+                      (gas[A_AREA], air.dx_cell, air.dx_face, gas[A_DIAM], gas[A_ROUGH],
+                       gas[A_VISC], air.leak), (gamma, r_gas, temp, atm, r_lin),
+                      dy[zp:zq], dy[zq:zq + nc - 1])
     dy[zx] = exhausted + leak
 
 
@@ -1140,13 +1140,21 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
 
 
 @njit(cache=True, _nrt=False)
-def _drive_axle(y, dy, z, vc, dem, motor, ctrl, ws, rail, slip, misc, out, sg):
-    """One induction drive (a consist's motors, alike) at vehicle speed ``vc`` (m/s)
-    under the consist's demand ``dem`` (N): the rates of its states at ``y[z:]`` into
-    ``dy``, its signals into ``sg``; returns the consist's creep force, N (law in
-    :func:`_induction`). A compiled function of its own, called, not inlined: inlined
-    into every copy of the right-hand side it made the kernels' first compile slower
+def _drive_axle(y, dy, d, kd, vc, dem, out, sg):
+    """Induction drive ``kd`` of the :class:`Drive` ``d`` (a consist's motors, alike) at
+    vehicle speed ``vc`` (m/s) under the consist's demand ``dem`` (N): the rates of its
+    states at ``y[d.z[kd]:]`` into ``dy``, its drive outputs into ``out`` and its signals
+    into ``sg``; returns the consist's creep force, N (law in :func:`_induction`). A
+    compiled function of its own, called, not inlined: inlined into every copy of the
+    right-hand side it made the kernels' first compile slower
     (docs/induction-drive-train.md)."""
+    z = d.z[kd]
+    motor = d.motor[kd]
+    ctrl = d.ctrl[kd]
+    ws = d.ws[kd]
+    rail = d.rail[kd]
+    slip = d.slip[kd]
+    misc = d.misc[kd]
     zw = z + N_DRIVE
     r = ws[W_R]
     gr = ws[W_I]
@@ -1214,8 +1222,7 @@ def _induction(y, tr, w, dy):
         if kd < 0:
             continue
         vc = y[n + int(cons[c, K_VEH])]
-        fc = _drive_axle(y, dy, d.z[kd], vc, w.ddem[kd], d.motor[kd], d.ctrl[kd], d.ws[kd],
-                         d.rail[kd], d.slip[kd], d.misc[kd], w.dout[kd], w.dsig[kd])
+        fc = _drive_axle(y, dy, d, kd, vc, w.ddem[kd], w.dout[kd], w.dsig[kd])
         w.fcons[c] = fc
         ftot += fc
     w.sig[0]["traction"] += ftot

@@ -18,10 +18,12 @@ Tables (the coupler table's layout lives with the coupler models, in
 Only the engine (:mod:`ltdsim.engine.lowering`, :mod:`ltdsim.engine.kernel`,
 :mod:`ltdsim.engine.couplers`) imports these constants; every other module reads lowered
 data through :class:`ltdsim.engine.lowering.Lowered`'s properties or works from the validated
-:class:`~ltdsim.scenario.model.Scenario`.
+:class:`~ltdsim.scenario.Scenario`.
 """
 
 from __future__ import annotations
+
+from ltdsim.variables import DRIVE_SIGNALS, ENERGY_TERMS  # (their orders: the columns')
 
 
 def layout(*names: str, start: int = 0) -> range:
@@ -80,8 +82,6 @@ N_TRAC = len(TRACTION_SLOTS)
 #: dynamic braking at the rail (the energy the locomotives take back, >= 0), air brakes,
 #: Davis resistance, grade (the potential energy gained), curve resistance; then one per
 #: coupler, the net work it has taken (what its gears dissipated plus what they store)
-ENERGY_TERMS = ("traction_energy", "dynamic_brake_energy", "air_brake_energy",
-                "davis_energy", "grade_energy", "curve_energy")
 (E_MOTOR, E_DYN, E_AIR, E_DAVIS, E_GRADE, E_CURVE) = layout(*ENERGY_TERMS)
 N_ENERGY = len(ENERGY_TERMS)
 
@@ -151,9 +151,6 @@ N_DRIVE_MISC = len(DRIVE_MISC)
 #: record ``Outputs.m``): motor torque N m, motor speed rad/s, stator current A rms
 #: winding, creep -, creep force per locomotive N, DC power per locomotive W; one motor's
 #: flux linkages in the controller's synchronous frame, Wb (peak): stator d, q, rotor d, q
-DRIVE_SIGNALS = ("motor_torque", "motor_speed", "stator_current", "creep", "creep_force",
-                 "dc_power", "stator_flux_d", "stator_flux_q", "rotor_flux_d",
-                 "rotor_flux_q")
 (DS_TORQUE, DS_SPEED, DS_CURRENT, DS_CREEP, DS_FORCE, DS_PDC, DS_PSD, DS_PSQ, DS_PRD,
  DS_PRQ) = layout(*DRIVE_SIGNALS)
 N_DRIVE_SIGNALS = len(DRIVE_SIGNALS)

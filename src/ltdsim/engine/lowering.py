@@ -1,4 +1,4 @@
-"""Lower a validated :class:`~ltdsim.scenario.model.Scenario` to the flat arrays the kernel reads.
+"""Lower a validated :class:`~ltdsim.scenario.Scenario` to the flat arrays the kernel reads.
 
 This is the only place that knows both the scenario's structure and the kernel's
 array layout (:mod:`ltdsim.engine.layout` for the vehicle, consist, traction and driver tables,
@@ -16,7 +16,7 @@ from ltdsim.engine.couplers import N_CCOL, P_D0, lower_coupler
 from ltdsim.engine.integrators import BS23, Tableau, get_tableau
 from ltdsim.engine.layout import (
     N_DRIVE_MISC,
-    CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, N_EVENT_COLUMNS, A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
+    CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
     D_BMODEL, I_CELLS, I_CV, I_DV, I_EXH, I_NCP, I_PIPE, N_AIR, N_AIR_INDEX, V_BAREA, V_BCELL,
     V_BCV, V_BGAIN, V_BINVSHOES, V_BPFS, V_BSPRING,
     D_AW, D_BCTRL, D_BFULLSUM, D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP,
@@ -28,7 +28,7 @@ from ltdsim.engine.layout import (
 from ltdsim.physics.air.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
 from ltdsim.physics.resistance import PURE_SIGN
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 
 # the tables' column layouts (V_*, K_*, T_*, D_*) live in ltdsim.engine.layout, the coupler
 # table's (P_* common columns, each model's own) with the models in ltdsim.engine.couplers
@@ -556,7 +556,7 @@ def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
     from ltdsim.physics.air.brakepipe import air_viscosity, pipe_geometry
     from ltdsim.physics.air.brakevalves import (
         DV_PARAMS, control_valve_init, control_valve_row, driver_valve_init, driver_valve_row)
-    from ltdsim.scenario.model import valve_tables
+    from ltdsim.scenario import valve_tables
 
     fl = s.brake.fluid
     a = s.brake.air

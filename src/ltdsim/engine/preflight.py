@@ -252,9 +252,9 @@ def fluid_rates(scenario) -> tuple[float, list[tuple[str, float]]]:
     rt = a.gas_constant * a.temperature
     p = np.full(dx.size, parts["p_abs"])
     q = np.full(dx.size - 1, EMERGENCY_MACH * math.sqrt(rt) * area * parts["p_abs"] / rt)
-    pipe = pipe_max_rate(p, q, area, dx, parts["geometry"].dx_face, fl.pipe_diameter,
-                         fl.roughness, parts["viscosity"], parts["leak"], a.gamma, a.gas_constant,
-                         a.temperature, a.linear_ratio)
+    pipe = pipe_max_rate(p, q, (area, dx, parts["geometry"].dx_face, fl.pipe_diameter,
+                                fl.roughness, parts["viscosity"], parts["leak"]),
+                         (a.gamma, a.gas_constant, a.temperature, 0.0, a.linear_ratio))
     cell = float(area * dx.min())
     p_max = max(parts["p_abs"], parts["p_main"])
     gas = dict(gamma=a.gamma, r_gas=a.gas_constant, temperature=a.temperature,
@@ -288,3 +288,18 @@ def warning(lim: StepLimit | None) -> str | None:
     return (f"solver.dt = {lim.dt:g} s is {lim.share:.0%} of the largest stable step of "
             f"{lim.method} for this train ({lim.limit:.3g} s, set by {lim.reason()}); "
             "a stiffer moment may grow: consider a smaller solver.dt")
+
+
+def check(scenario, source: str | None = None) -> StepLimit | None:
+    """Refuse, before anything runs, a fixed step above the method's largest stable step
+    for ``scenario``'s train (unless ``solver.stability_check = false``): raises
+    :class:`~ltdsim.errors.ScenarioError` naming ``source`` (the file or ``--set`` that
+    asked for the step; default the scenario's name), the key, the limit and what sets
+    it (:func:`refusal`). Returns the limit (None under bs23)."""
+    from ltdsim.errors import ScenarioError
+
+    lim = step_limit(scenario)
+    if lim is not None and scenario.solver.stability_check and lim.share > 1.0:
+        raise ScenarioError(source or f"scenario {scenario.name!r}", [("", refusal(lim))])
+    return lim
+

@@ -65,7 +65,7 @@ def scenario_kernels(scenarios: Iterable) -> list[KernelCall]:
     """The kernel calls that simulating each of ``scenarios`` needs, one per distinct
     kernel and argument types (a sweep of fixed-step cases needs one)."""
     from ltdsim.engine.lowering import lower
-    from ltdsim.results.simulate import zero_step_call
+    from ltdsim.engine.run import zero_step_call
 
     calls, seen = [], set()
     for sc in scenarios:
@@ -84,8 +84,8 @@ def gear_rig_kernel() -> KernelCall:
     its argument types do not depend on the gear (the coupler model is a number)."""
     import numpy as np
 
-    from ltdsim.analysis.gears import MODE_DEFLECTION, _lowered_gear, _rig, rig_args
-    from ltdsim.scenario.model import CouplerParams
+    from ltdsim.engine.rig import MODE_DEFLECTION, _lowered_gear, _rig, rig_args
+    from ltdsim.scenario import CouplerParams
 
     any_gear = CouplerParams(model="simplified", slack=0.0, damping=1.0, k1=1.0, k2=1.0,
                              k3=1.0, v_c=1.0)

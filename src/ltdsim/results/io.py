@@ -237,3 +237,14 @@ def _damage(path: Path, exc: Exception) -> str:
                 "write); copy it again or rerun the simulation that writes it")
     first = text.strip().splitlines()[0] if text.strip() else type(exc).__name__
     return f"a damaged netCDF-4 file ({type(exc).__name__}: {first[:160]})"
+
+
+def scenario_of(ds: xr.Dataset, scenario=None):
+    """The scenario that made result ``ds``: ``scenario`` when given, else the one the
+    result stores (its ``scenario_json`` attribute, :meth:`Scenario.from_saved`)."""
+    if scenario is not None:
+        return scenario
+    from ltdsim.scenario import Scenario
+
+    return Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+

@@ -8,6 +8,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
+from ltdsim.results.io import scenario_of
+
 #: m: rating travel of an AAR M-901 draft gear of 3-1/4 in (82.55 mm), the reference
 #: against which gears without a stated travel (the study's simplified coupler) are checked
 REFERENCE_TRAVEL = 0.083
@@ -195,10 +197,7 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
         gear in draft and in buff, >= 0), ``max_deflection_m`` (the larger),
         ``excess_m`` (beyond the travel, >= 0) and ``exceeds`` (bool).
     """
-    if scenario is None:
-        from ltdsim.scenario.model import Scenario
-
-        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+    scenario = scenario_of(ds, scenario)
     d = ds.coupler_deflection.values
     nc = d.shape[1]
     params = [scenario.coupler(j) for j in range(nc)]
@@ -288,9 +287,8 @@ def brake_control_vehicles(ds: xr.Dataset) -> list[int]:
     pipe). Without the scenario in the result, the lead alone."""
     if "scenario_json" not in ds.attrs:
         return [0]
-    from ltdsim.scenario.model import Scenario
 
-    sc = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+    sc = scenario_of(ds)
     consists = sc.consists()
     if not consists:
         return [0]
@@ -630,10 +628,7 @@ def energy_summary(ds: xr.Dataset, scenario=None) -> dict | None:
     """
     if "traction_energy" not in ds:
         return None
-    if scenario is None:
-        from ltdsim.scenario.model import Scenario
-
-        scenario = Scenario.from_saved(json.loads(ds.attrs["scenario_json"]), "result")
+    scenario = scenario_of(ds, scenario)
     from ltdsim.engine.couplers import stored_energy
     from ltdsim.engine.layout import ENERGY_TERMS
 

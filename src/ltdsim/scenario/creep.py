@@ -16,19 +16,16 @@ import functools
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
+from ltdsim.data import load_preset, preset_names
+from ltdsim.scenario._base import _Strict
 from ltdsim.physics.drive import creep as _creep
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_default=True,
-                              strict=True)
 
 
 @functools.cache
 def _preset(name: str) -> dict:
-    return _creep.load_creep_preset(name)
+    return load_preset("creep", name)
 
 
 class RailCondition(_Strict):
@@ -57,7 +54,7 @@ class RailCondition(_Strict):
         if not isinstance(data, dict) or data.get("preset") is None:
             return data
         name = data["preset"]
-        names = _creep.creep_presets()
+        names = preset_names("creep")
         if not isinstance(name, str) or name not in names:
             raise ValueError(f"unknown rail condition preset {name!r}; available: "
                              f"{', '.join(names) or 'none'}")

@@ -1,6 +1,6 @@
 """The key reference of ``docs/scenario.md``, generated from the scenario schema.
 
-Every model class reachable from :class:`ltdsim.scenario.model.Scenario` becomes one table:
+Every model class reachable from :class:`ltdsim.scenario.Scenario` becomes one table:
 for each key its dotted path (as ``--set`` and error messages spell it; ``<i>`` stands
 for an index), type, unit, default, allowed values and meaning. Units, ranges and
 defaults come from the pydantic fields, so the document cannot drift from the code:
@@ -418,10 +418,10 @@ def _discriminator(f: FieldInfo | None, tp) -> str | None:
 
 
 def sections(root: type[BaseModel] | None = None) -> list[Section]:
-    """Every table reachable from ``root`` (default :class:`~ltdsim.scenario.model.Scenario`),
+    """Every table reachable from ``root`` (default :class:`~ltdsim.scenario.Scenario`),
     depth first in field order; a discriminated union gives one section per member."""
     if root is None:
-        from ltdsim.scenario.model import Scenario as root
+        from ltdsim.scenario import Scenario as root
     out: list[Section] = []
     seen: set[tuple[str, str | None]] = set()
 

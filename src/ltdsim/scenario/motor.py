@@ -3,19 +3,19 @@
 A :class:`Motor` is one traction motor with its inverter and field-oriented controller:
 the ratings, the star-equivalent equivalent circuit, the rotor inertia and the figures
 of the controller's design. Shipped parameter sets live in ``ltdsim/data/motors/*.toml``
-(:func:`motor_presets`, :func:`load_motor`), each with its sources. Units are SI except
-where the key says otherwise (speeds in rpm, the current-loop bandwidth in Hz, as
+(``ltdsim.data.preset_names("motors")``, :func:`load_motor`), each with its sources.
+Units are SI except where the key says otherwise (speeds in rpm, the current-loop bandwidth in Hz, as
 engineers read them on a rating plate and a controller's data sheet).
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
-from importlib import resources
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from ltdsim.data import load_preset
 
 
 class Motor(BaseModel):
@@ -83,31 +83,13 @@ class Motor(BaseModel):
         return self.rated_power / (self.base_speed * math.pi / 30.0)
 
 
-def _motor_dir():
-    return resources.files("ltdsim.data").joinpath("motors")
-
-
-def motor_presets() -> list[str]:
-    """Names of the shipped motor parameter sets (``ltdsim/data/motors/*.toml``)."""
-    folder = _motor_dir()
-    if not folder.is_dir():
-        return []
-    return sorted(p.name.removesuffix(".toml") for p in folder.iterdir()
-                  if p.name.endswith(".toml") and p.is_file())
-
-
 def load_motor(name: str) -> Motor:
-    """The shipped motor parameter set ``name`` (see :func:`motor_presets`), validated."""
-    names = motor_presets()
-    if name not in names:
-        raise ValueError(f"unknown motor preset {name!r}; available: "
-                         f"{', '.join(names) or 'none (this install lacks its package data)'}")
-    path = _motor_dir().joinpath(f"{name}.toml")
-    with path.open("rb") as fh:
-        data = tomllib.load(fh)
+    """The shipped motor parameter set ``name`` (``ltdsim.data.preset_names("motors")``),
+    validated; a bad key is one ``ValueError`` line naming the file and the key."""
+    data = load_preset("motors", name)
     try:
         return Motor(**data)
     except ValidationError as e:
         err = e.errors()[0]
         key = ".".join(str(x) for x in err["loc"]) or "(file)"
-        raise ValueError(f"{path.name}: {key}: {err['msg']}") from None
+        raise ValueError(f"{name}.toml: {key}: {err['msg']}") from None

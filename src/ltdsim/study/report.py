@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ltdsim import __version__
+from ltdsim._version import __version__
 from ltdsim.data import study_tables
 from ltdsim.results.io import atomic_path
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 
 CSS = """
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:1.5em auto;padding:0 1em;

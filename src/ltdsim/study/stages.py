@@ -34,7 +34,7 @@ from ltdsim._provenance import code_hash
 from ltdsim.errors import ScenarioError
 from ltdsim.results.io import (atomic_path, file_problem, file_record, read_sealed, save_result,
                        sealed_json)
-from ltdsim.scenario.model import CouplerParams, Scenario, load_scenario
+from ltdsim.scenario import CouplerParams, Scenario, load_scenario
 
 STAGES = ("reduction", "sweep", "base", "modal", "report")
 Progress = Callable[[str, str], None]
@@ -195,7 +195,7 @@ def _reduction_key(maxiter):
 
 def _stage_reduction(out, cache, maxiter, workers):
     from ltdsim.viz.plotting import save_reduction
-    from ltdsim.analysis.reduction import reduce_gear
+    from ltdsim.analysis.reduction import Search, reduce_gear
 
     files = [out / "fig3_reduction_low.png", out / "fig3_reduction_high.png"]
     key = _reduction_key(maxiter)
@@ -204,7 +204,8 @@ def _stage_reduction(out, cache, maxiter, workers):
         return hit
     rows = {}
     for (level, preset), fig in zip(REDUCTION_PRESETS.items(), files):
-        r = reduce_gear(CouplerParams(preset=preset), workers=workers, maxiter=maxiter)
+        r = reduce_gear(CouplerParams(preset=preset), workers=workers,
+                        search=Search(maxiter=maxiter))
         save_reduction(r, fig, title=f"Fig. 3 ({level} set): friction gear vs fitted simplified")
         rows[level] = {**r.parameters, "fit_percent": r.fit_percent, "evaluations": r.evaluations}
     return cache.put("reduction", key, rows, files)
@@ -240,10 +241,12 @@ def _base_key(scenario: Scenario) -> str:
 
 
 def _stage_base(out, cache, scenario: Scenario):
-    from ltdsim.analysis.phases import critical_couplers, phase_figures, phase_norms, traction_check
+    from ltdsim.analysis.phases import critical_couplers, phase_norms, traction_check
+    from ltdsim.viz.analysis import phase_figures
     from ltdsim.viz.plotting import save_overview
     from ltdsim.results.simulate import simulate
-    from ltdsim.analysis.spectra import band_share, phase_spectra, spectra_figures
+    from ltdsim.analysis.spectra import band_share, phase_spectra
+    from ltdsim.viz.analysis import spectra_figures
     from ltdsim.results.summary import coupler_summary, run_summary
 
     nc_path = out / "base_case.nc"
@@ -292,7 +295,8 @@ def _diagnosis(ds, scenario: Scenario, figure: Path) -> dict | None:
     acceleration, and the same train under the reading ltdsim used before (sharp
     reference corners, the output times the train's mass) with a figure of both."""
     from ltdsim.analysis.diagnostics import (PAPER_EARLIER_READING, base_run_diagnostics,
-                                    closed_loop_modes, hunt_figure)
+                                             closed_loop_modes)
+    from ltdsim.viz.analysis import hunt_figure
     from ltdsim.errors import LtdsimError
     from ltdsim.results.simulate import simulate
 
@@ -338,7 +342,8 @@ def _stage_modal(out, cache, scenario: Scenario):
     series); and the bands of the softest buff and stiffest draft couplings among the
     scenario's cases (the widest the study's parameter space allows)."""
     from ltdsim.engine.couplers import linearised_stiffness
-    from ltdsim.analysis.modal import coupling_stiffness, save_mode_shapes, train_modes
+    from ltdsim.analysis.modal import coupling_stiffness, train_modes
+    from ltdsim.viz.analysis import save_mode_shapes
 
     key = _modal_key(scenario)
     files = [out / "fig8_modes_buff.png", out / "fig8_modes_draft.png"]
@@ -412,7 +417,8 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     again ("recomputing stage base: report/base_case.nc has 1024 bytes (written with
     ...)"; logged as a warning without it). A stage that is reused says so.
     """
-    from ltdsim.results.simulate import check_memory
+    from ltdsim.engine.preflight import check
+    from ltdsim.engine.run import check_memory
     from ltdsim.sweep.core import check_sweep_memory
 
     out = Path(out)
@@ -433,6 +439,7 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     spec = _sweep_spec(scenario_path, overrides)
     # every input and the memory the runs need are checked before anything is written
     check_sweep_memory(spec, str(scenario_path), workers)
+    check(base_case, "--set" if overrides else f"{scenario_path} case {case}")
     check_memory(base_case, source=f"{scenario_path} case {case}")
     settings = study_settings(scenario_path, case, overrides, reduction, reduction_maxiter)
     _check_output(out, settings, force, notice)

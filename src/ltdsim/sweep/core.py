@@ -34,7 +34,7 @@ import pandas as pd
 from ltdsim.errors import LtdsimError, ScenarioError
 from ltdsim.results.io import (atomic_path, file_problem, file_record, read_sealed, same_file,
                        sealed_json)
-from ltdsim.scenario.model import Scenario, load_scenario, read_toml
+from ltdsim.scenario import Scenario, load_scenario, read_toml
 
 SWEEP_KEYS = {"name", "scenario", "case", "overrides", "grid", "list", "monte_carlo"}
 DISTRIBUTIONS = {"uniform": ("low", "high"), "normal": ("mean", "std"),
@@ -99,7 +99,7 @@ class Sweep:
     """A base scenario, its cases, and where the sweep file came from.
 
     ``largest`` is ``(bytes, case id)`` of the case whose run needs the most memory
-    (:func:`ltdsim.results.simulate.recording_bytes`), found when the cases are validated."""
+    (:func:`ltdsim.engine.run.recording_bytes`), found when the cases are validated."""
 
     base: Scenario
     cases: Sequence[Case]
@@ -307,9 +307,12 @@ def _monte_carlo(source, mc: dict) -> list[dict]:
 
 
 def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
-    """``sweep`` once every case's scenario is valid (else a ScenarioError naming each
-    bad case, at most 20 of them), with its most memory-hungry case in ``largest``."""
-    from ltdsim.results.simulate import recording_bytes
+    """``sweep`` once every case's scenario is valid and its fixed step stable (else a
+    ScenarioError naming each bad case, at most 20 of them;
+    :func:`ltdsim.engine.preflight.check`), with its most memory-hungry case in
+    ``largest``."""
+    from ltdsim.engine.preflight import check
+    from ltdsim.engine.run import recording_bytes
 
     problems = []
     bad = 0
@@ -321,6 +324,7 @@ def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
             report(k, total)
         try:
             sc = sweep.scenario(case)
+            check(sc)
         except ScenarioError as exc:
             bad += 1
             if bad <= 20:
@@ -343,8 +347,8 @@ def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
 def check_sweep_memory(sweep: Sweep, source: str, workers: int | None = None) -> None:
     """Refuse (ScenarioError) a sweep whose largest case, run on every local worker at
     once (``workers``, default all cores), would take more than its share of the memory
-    available (:func:`ltdsim.results.simulate.check_memory`); checked before any case runs."""
-    from ltdsim.results.simulate import check_memory
+    available (:func:`ltdsim.engine.run.check_memory`); checked before any case runs."""
+    from ltdsim.engine.run import check_memory
 
     if sweep.largest is None:
         return
@@ -728,7 +732,7 @@ def phase_norm_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
     """Long table of every finished case's phase norms: case, phase, quantity, number
     (coupler or vehicle as people count: coupler 1 behind the lead, vehicle 1 the lead;
     empty for the locomotive force and speed error), value and its unit."""
-    from ltdsim.results.simulate import UNITS
+    from ltdsim.variables import UNITS
 
     rows = []
     for case in sweep.cases:

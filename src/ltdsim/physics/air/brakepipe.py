@@ -184,9 +184,12 @@ def friction_factor(re, rel_rough):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def pipe_rates(p, q, inflow, area, dx_cell, dx_face, diameter, roughness, viscosity,
-               leak_cd_area, gamma, r_gas, temperature, atmosphere, r_lin, dp, dq):
+def pipe_rates(p, q, inflow, pipe, gas, dp, dq):
     """Rates of the brake pipe's states; returns the total leak to atmosphere, kg/s.
+
+    ``pipe`` is the tuple ``(area, dx_cell, dx_face, diameter, roughness, viscosity,
+    leak_cd_area)`` and ``gas`` ``(gamma, r_gas, temperature, atmosphere, r_lin)``, each
+    item as below.
 
     Parameters
     ----------
@@ -223,6 +226,8 @@ def pipe_rates(p, q, inflow, area, dx_cell, dx_face, diameter, roughness, viscos
         Written: dq/dt, kg/s^2.
 
     Allocates nothing; safe to call inside a compiled right-hand side."""
+    area, dx_cell, dx_face, diameter, roughness, viscosity, leak_cd_area = pipe
+    gamma, r_gas, temperature, atmosphere, r_lin = gas
     nc = p.shape[0]
     rt = r_gas * temperature
     leak_total = 0.0
@@ -313,10 +318,10 @@ def highest_wavenumber(dx_cell, dx_face) -> float:
     return math.sqrt(max(float(top[0]), 0.0))
 
 
-def pipe_max_rate(p, q, area, dx_cell, dx_face, diameter, roughness, viscosity,
-                  leak_cd_area, gamma, r_gas, temperature, r_lin) -> float:
+def pipe_max_rate(p, q, pipe, gas) -> float:
     """Upper bound of the largest |eigenvalue| of the pipe's rates linearised at the
-    state ``p`` (Pa abs), ``q`` (kg/s), 1/s (arguments as for :func:`pipe_rates`).
+    state ``p`` (Pa abs), ``q`` (kg/s), 1/s (``pipe`` and ``gas`` as for
+    :func:`pipe_rates`).
 
     Without flow the linearised pipe is, in its energy norm, a skew-symmetric acoustic
     part (frequencies up to ``omega = c`` times :func:`highest_wavenumber`, rad/s) plus a
@@ -327,6 +332,8 @@ def pipe_max_rate(p, q, area, dx_cell, dx_face, diameter, roughness, viscosity,
     step check: an explicit method is stable on the pipe when ``h`` times this rate lies
     inside its stability region along the worst ray (the imaginary axis is the safe
     choice)."""
+    area, dx_cell, dx_face, diameter, roughness, viscosity, leak_cd_area = pipe
+    gamma, r_gas, temperature, _, r_lin = gas
     p = np.asarray(p, dtype=float)
     q = np.asarray(q, dtype=float)
     dx_cell = np.asarray(dx_cell, dtype=float)

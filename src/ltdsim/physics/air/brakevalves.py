@@ -83,8 +83,6 @@ where the docs say so, and orifices as discharge coefficient times area (m^2).
 from __future__ import annotations
 
 import math
-import tomllib
-from importlib import resources
 
 import numpy as np
 from numba import njit
@@ -692,29 +690,3 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
     else:
         raise ValueError(f"kind {kind!r}; allowed: 'control', 'driver'")
     return float(max(rates))
-
-
-# --- presets ------------------------------------------------------------------------------
-
-def _brake_dir():
-    """The shipped valve presets, ``ltdsim/data/brakes/*.toml`` (package data)."""
-    return resources.files("ltdsim.data").joinpath("brakes")
-
-
-def brake_presets() -> list[str]:
-    """Names of the shipped valve presets (``valve = NAME`` under ``[brake.fluid]``)."""
-    folder = _brake_dir()
-    if not folder.is_dir():
-        return []
-    return sorted(p.name.removesuffix(".toml") for p in folder.iterdir()
-                  if p.name.endswith(".toml") and p.is_file())
-
-
-def load_brake_preset(name: str) -> dict:
-    """The ``[control_valve]`` and ``[driver_valve]`` tables of preset ``name``."""
-    names = brake_presets()
-    if name not in names:
-        raise ValueError(f"unknown brake valve preset {name!r}; available: "
-                         f"{', '.join(names) or 'none (this install lacks its package data)'}")
-    with _brake_dir().joinpath(f"{name}.toml").open("rb") as fh:
-        return tomllib.load(fh)

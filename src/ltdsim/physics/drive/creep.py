@@ -56,8 +56,6 @@ All quantities SI: N, m, s, rad/s, kg m^2, Pa.
 from __future__ import annotations
 
 import math
-import tomllib
-from importlib import resources
 
 import numpy as np
 from numba import njit
@@ -188,31 +186,6 @@ def slip_control(torque_limit, demand, omega, v, radius, sp):
     torque = torque_limit - sp[S_GAIN] * max(e, 0.0)
     torque = min(max(torque, 0.0), demand)
     return torque, rate
-
-
-# --- preset data --------------------------------------------------------------------------
-def _creep_dir():
-    return resources.files("ltdsim.data").joinpath("creep")
-
-
-def creep_presets() -> list[str]:
-    """Names of the shipped rail-condition presets (``data/creep/*.toml``)."""
-    folder = _creep_dir()
-    if not folder.is_dir():
-        return []
-    return sorted(p.name.removesuffix(".toml") for p in folder.iterdir()
-                  if p.name.endswith(".toml") and p.is_file())
-
-
-def load_creep_preset(name: str) -> dict:
-    """The table of rail-condition preset ``name`` (keys of :data:`CREEP_PARAMS` plus
-    ``source``)."""
-    names = creep_presets()
-    if name not in names:
-        raise ValueError(f"unknown creep preset {name!r}; available: "
-                         f"{', '.join(names) or 'none (this install lacks its package data)'}")
-    with _creep_dir().joinpath(f"{name}.toml").open("rb") as fh:
-        return tomllib.load(fh)
 
 
 def creep_row(table: dict) -> np.ndarray:

@@ -44,9 +44,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from numba import njit
 
-from ltdsim.physics._lazy import vectorize_when_used
 from ltdsim.physics.gears.couplers import solid_closure
 from ltdsim.physics.decay import HEAD_LIMIT, exp_neg_small, series_head
 
@@ -124,16 +125,23 @@ def _psi_pair(ta, tb, tg, mu1, mu2, mu3, plates, mu4, loading):
 
 
 @njit(cache=True, inline="always")
-def wedge_curves(x, v, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor, k_m, x_m0, k_r,
-                 x_r0, plates_loading, plates_unloading):
-    """Loading and unloading forces ``(f_l, f_u)`` of the wedge gear at ``x`` (N) and
-    their slopes ``(df_l/dx, df_u/dx)`` (N/m).
+def wedge_curves(x, v, geometry, friction, s_factor, springs, plates_loading,
+                 plates_unloading):
+    """Loading and unloading forces ``(f_l, f_u)`` of the wedge gear at ``x`` (m, a
+    magnitude) (N) and their slopes ``(df_l/dx, df_u/dx)`` (N/m).
 
-    ``v`` is the gear speed magnitude, m/s; ``plates_loading`` / ``plates_unloading``
-    (0-1) say how far the movable plates take part (stage 2 / stage 4) on each curve:
-    their friction coefficient mu4 is scaled by it, so the curves change continuously as
-    the plates engage and disengage.
+    ``v`` is the gear speed magnitude, m/s; ``geometry`` the tuple ``(tan alpha, tan
+    beta, tan gamma, G, c1, c2, c3)`` of :func:`wedge_geometry` (-); ``friction`` the
+    friction law's ``(h1, h2, h3)`` (-, -, s/m; Eq. 3); ``s_factor`` the lubrication
+    factor S on mu1 (-); ``springs`` ``(k_m, x_m0, k_r, x_r0)`` (N/m, m, N/m, m;
+    :func:`spring_forces`); ``plates_loading`` / ``plates_unloading`` (0-1) say how far
+    the movable plates take part (stage 2 / stage 4) on each curve: their friction
+    coefficient mu4 is scaled by it, so the curves change continuously as the plates
+    engage and disengage.
     """
+    ta, tb, tg, big_g, c1, c2, c3 = geometry
+    h1, h2, h3 = friction
+    k_m, x_m0, k_r, x_r0 = springs
     s = abs(v)
     # the exponents h3 |v_i| (s/m times m/s) of the friction laws at the sliding speeds
     # v1..v3 (paper Eq. 4) and at the plates' speeds s (loading) and G s (unloading)
@@ -321,11 +329,20 @@ def table_curve(tab, off, n, x):
     return f[k] * (1.0 - w) + f[k + 1] * w, slope
 
 
-@vectorize_when_used(["float64(float64, float64, float64, float64, float64, float64, float64,"
-                      " float64, float64, float64, float64, float64, float64, float64, float64,"
-                      " float64)"], cache=True)
-def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor, k_m, x_m0, k_r,
-                           x_r0, x_gap, delta, plates):
+@njit(cache=True)
+def _wedge_static(x, loading, geometry, friction, s_factor, springs, gap, backlash, plates):
+    """:func:`wedge_gear_quasistatic` at one deflection ``x`` (m), N."""
+    if plates < 0.0:
+        engaged = 1.0 if (x > gap if loading > 0.5 else x > gap + backlash) else 0.0
+    else:
+        engaged = plates
+    f_l, f_u, _, _ = wedge_curves(x, 0.0, geometry, friction, s_factor, springs, engaged,
+                                  engaged)
+    return f_l if loading > 0.5 else f_u
+
+
+def wedge_gear_quasistatic(x, loading, angles, friction, s_factor, springs, gap=0.0,
+                           backlash=0.0, plates=-1.0):
     """Quasi-static force of the wedge gear (paper Eq. 1 at zero speed), N.
 
     Parameters
@@ -334,28 +351,29 @@ def wedge_gear_quasistatic(x, loading, alpha, beta, gamma, h1, h2, h3, s_factor,
         Gear deflection, m (>= 0).
     loading : float
         1 for the loading curve, 0 for the unloading curve.
-    alpha, beta, gamma : float
-        Wedge angles, rad.
-    h1, h2, h3 : float
-        Friction law coefficients (Eq. 3), -, -, s/m.
+    angles : (float, float, float)
+        Wedge angles alpha, beta, gamma, rad.
+    friction : (float, float, float)
+        Friction law coefficients h1, h2, h3 (Eq. 3), -, -, s/m.
     s_factor : float
         Lubrication factor S on mu_1, -.
-    k_m, x_m0, k_r, x_r0 : float
-        Main and release spring stiffness (N/m) and pre-deflection (m).
-    x_gap, delta : float
+    springs : (float, float, float, float)
+        Main and release spring stiffness (N/m) and pre-deflection (m): ``(k_m, x_m0,
+        k_r, x_r0)``.
+    gap, backlash : float
         Plate gap and backlash, m (used only to decide ``plates`` when it is < 0).
     plates : float
         Engagement of the movable plates, 1 (stage 2 or 4) to 0 (stage 1 or 3), or -1
-        to decide from ``x > x_gap`` (loading) or ``x > x_gap + delta`` (unloading).
+        to decide from ``x > gap`` (loading) or ``x > gap + backlash`` (unloading).
     """
-    ta, tb, tg, big_g, c1, c2, c3 = wedge_geometry(alpha, beta, gamma)
-    if plates < 0.0:
-        engaged = 1.0 if (x > x_gap if loading > 0.5 else x > x_gap + delta) else 0.0
-    else:
-        engaged = plates
-    f_l, f_u, _, _ = wedge_curves(x, 0.0, ta, tb, tg, big_g, c1, c2, c3, h1, h2, h3, s_factor,
-                                  k_m, x_m0, k_r, x_r0, engaged, engaged)
-    return f_l if loading > 0.5 else f_u
+    geometry = wedge_geometry(*(float(a) for a in angles))
+    fr = tuple(float(h) for h in friction)
+    sp = tuple(float(k) for k in springs)
+    xs = np.asarray(x, dtype=float)
+    out = np.array([_wedge_static(float(xi), float(loading), geometry, fr, float(s_factor),
+                                  sp, float(gap), float(backlash), float(plates))
+                    for xi in xs.ravel()]).reshape(xs.shape)
+    return float(out) if out.ndim == 0 else out
 
 
 __all__ = [

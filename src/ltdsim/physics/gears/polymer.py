@@ -121,19 +121,21 @@ def polymer_curves(x, v, preload, initial_stiffness, force_at_travel, travel, ex
 
 
 @njit(cache=True)
-def polymer_gear(f1, x, v, preload, initial_stiffness, force_at_travel, travel, exponent,
-                 return_ratio, gain_loading, gain_unloading, rate_speed, k_locked, rate,
-                 solid_stiffness):
+def polymer_gear(f1, x, v, curves, k_locked, rate, solid_stiffness):
     """One polymer gear in contact: its force and the rate of its internal force.
 
     Returns ``(F, dF1/dt)``: ``F`` (N, >= 0, a magnitude) and the rate of the internal
-    force ``F1`` (N/s), from :func:`polymer_curves` and the part all hysteretic gears
-    share, :func:`ltdsim.physics.gears.draftgear.gear_force` (the solid gear past ``travel``
-    with ``solid_stiffness`` N/m, the band law with ``k_locked`` N/m and ``rate`` the
-    internal force's tracking rate 1/s): the same steps as the kernel takes, for a gear
-    on its own (tests, rigs). ``x`` (m) and ``v`` (m/s) are magnitudes as in the module
-    docstring.
+    force ``F1`` (N/s), from :func:`polymer_curves` with ``curves`` its parameters after
+    ``x`` and ``v`` (``(preload, initial_stiffness, force_at_travel, travel, exponent,
+    return_ratio, gain_loading, gain_unloading, rate_speed)``) and the part all
+    hysteretic gears share, :func:`ltdsim.physics.gears.draftgear.gear_force` (the solid
+    gear past its travel with ``solid_stiffness`` N/m, the band law with ``k_locked``
+    N/m and ``rate`` the internal force's tracking rate 1/s): the same steps as the
+    kernel takes, for a gear on its own (tests, rigs). ``x`` (m) and ``v`` (m/s) are
+    magnitudes as in the module docstring.
     """
+    (preload, initial_stiffness, force_at_travel, travel, exponent, return_ratio,
+     gain_loading, gain_unloading, rate_speed) = curves
     f_l, f_u, s_l, s_u = polymer_curves(x, v, preload, initial_stiffness, force_at_travel,
                                         travel, exponent, return_ratio, gain_loading,
                                         gain_unloading, rate_speed)

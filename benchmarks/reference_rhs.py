@@ -20,7 +20,7 @@ from ltdsim.physics import (
     coupler_linear, coupler_simplified, curve_resistance, davis_resistance, grade_resistance,
     traction_limit,
 )
-from ltdsim.scenario.model import Scenario
+from ltdsim.scenario import Scenario
 
 #: the coupler models this reference covers
 MODELS = ("linear", "simplified")

@@ -1,0 +1,271 @@
+"""Run a lowered scenario through the compiled kernel: the records it fills, the memory
+a run needs, the kernel called chunk by chunk with progress, and the error when the
+state stops being finite. :func:`ltdsim.simulate` (``ltdsim.results.simulate``) turns
+the records into the result."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+
+import numpy as np
+
+from ltdsim.engine import kernel
+from ltdsim.engine.integrators import get_tableau
+from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, N_EVENT_COLUMNS
+from ltdsim.engine.lowering import MAX_EVENTS, N_DRIVE_STATES, Lowered
+from ltdsim.errors import ScenarioError, SimulationError
+from ltdsim.scenario import Scenario
+from ltdsim.variables import RECORD_ARRAYS
+
+ProgressFn = Callable[[float, float], None]
+
+def recorded(scenario: Scenario) -> frozenset[str]:
+    """The kernel's record arrays (:data:`RECORD_ARRAYS` keys) a run of ``scenario``
+    fills: all of them unless ``solver.record`` names a selection."""
+    names = scenario.solver.record
+    keys = (frozenset(RECORD_ARRAYS) if names is None else
+            frozenset(k for k, vs in RECORD_ARRAYS.items() if set(vs) & set(names)))
+    return keys if scenario.solver.energy else keys - {"e"}
+
+#: share of the memory available when a run starts (``MemAvailable`` in /proc/meminfo)
+#: that one run's recording may take; a longer recording is refused before anything is
+#: allocated (see :func:`check_memory`)
+MEMORY_SHARE = 0.5
+
+
+def recording_bytes(scenario: Scenario) -> int:
+    """Memory a run of ``scenario`` needs, bytes: the recording (``n_samples`` x the
+    recorded values per sample x 8 bytes: position, velocity and acceleration per
+    vehicle, deflection and force per coupler, 6 train signals, brake force and cylinder
+    per braked vehicle, force per locomotive consist), the variables the result adds
+    (relative position and velocity per vehicle, speed error, time), and the kernel's
+    state and work arrays (an upper bound). Computed from the scenario alone, without
+    allocating anything."""
+    sv = scenario.solver
+    n = scenario.n_vehicles
+    nc = max(n - 1, 0)
+    braked = sum(v.brake is not None for v in scenario.vehicles)
+    nb = n if braked else 0
+    nk = len(scenario.consists())
+    n_samples = sv.n_steps // sv.record_every + 1
+    nd = sum((loco.drive or scenario.traction.drive) == "induction"
+             for loco in scenario.consists())
+    keep = recorded(scenario)
+    per_sample = (n * (("x" in keep) + ("v" in keep) + ("a" in keep))
+                  + nc * (("d" in keep) + ("f" in keep)) + kernel.N_SCALARS
+                  + nb * (("b" in keep) + ("p" in keep))
+                  + (nk if nk > 1 and "c" in keep else 0)
+                  + n * (("x" in keep) + ("v" in keep)) + 2
+                  + (2 * nd * N_DRIVE_SIGNALS if "m" in keep else 0)
+                  + (2 * (N_ENERGY + nc + 1) if "e" in keep else 0))
+    ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
+    if sv.energy and sv.adaptive:  # (bs23 integrates the energy terms as states)
+        ny += N_ENERGY + nc
+    cells = 0
+    if scenario.brake.model == "fluid":
+        # pipe, auxiliary reservoir and cylinder pressure per vehicle, exhausted air;
+        # the pipe's cells and faces, every valve's states, the pipe's work array
+        per_sample += n * (("bp" in keep) + ("ar" in keep) + ("bc" in keep)) + ("ax" in keep)
+        cells = n * scenario.brake.fluid.cells_per_vehicle
+        ny += 2 * cells + braked * kernel.N_CV + nk * kernel.N_DV + 1
+    stages = 4 if sv.adaptive else get_tableau(sv.method).stages
+    air_steps = sv.adaptive and scenario.brake.model == "fluid"
+    ny += nd * N_DRIVE_STATES
+    work = (kernel.work_size(n, ny, stages, nk, cells, air_steps, nd, sv.energy)
+            + 4 * ny + 4 * nc + n + 2 + nk)
+    return 8 * (n_samples * per_sample + work)
+
+
+def available_memory() -> int | None:
+    """Memory available for new work now, bytes (``MemAvailable`` of /proc/meminfo on
+    Linux, else free physical pages), or None where neither can be read."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _gb(nbytes: float) -> str:
+    """A size in GB (10^9 bytes), e.g. ``0.0328 GB``, ``12.5 GB``, ``32,801 GB``."""
+    gb = nbytes / 1e9
+    return f"{gb:,.0f} GB" if gb >= 100 else f"{gb:.3g} GB"
+
+
+def check_memory(scenario: Scenario, source: str | None = None, parallel: int = 1,
+                 largest: int | None = None) -> int:
+    """Refuse, before anything is allocated, a run whose recording would take more than
+    :data:`MEMORY_SHARE` of the memory available; returns the estimate, bytes.
+
+    ``parallel`` runs of up to ``largest`` bytes each (default: the estimate of
+    ``scenario``, :func:`recording_bytes`) at once, as in a sweep. Raises
+    :class:`~ltdsim.errors.ScenarioError` naming the estimate in GB and the keys to
+    change (``solver.output_interval``, ``solver.t_end``).
+    """
+    need = recording_bytes(scenario) if largest is None else largest
+    avail = available_memory()
+    if avail is None or need * parallel <= MEMORY_SHARE * avail:
+        return need
+    sv = scenario.solver
+    n_samples = sv.n_steps // sv.record_every + 1
+    runs = (f"; {parallel} runs at once need {_gb(need * parallel)} (fewer with "
+            "--workers)" if parallel > 1 else "")
+    raise ScenarioError(source or f"scenario {scenario.name!r}", [(
+        "solver.output_interval, solver.t_end",
+        f"the recording would need about {_gb(need)} ({n_samples:,} samples of "
+        f"{scenario.n_vehicles} vehicles at output_interval = {sv.output_interval:g} s up "
+        f"to t_end = {sv.t_end:g} s){runs}: more than {MEMORY_SHARE:.0%} of the "
+        f"{_gb(avail)} of memory available; raise solver.output_interval, lower "
+        "solver.t_end or record fewer time series (solver.record)")])
+
+
+
+def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_ARRAYS)):
+    """Records, state, controller, bs23 step state, step grid and the kernels' common
+    argument tail (train, couplers, driver, work, outputs) for a run of ``low`` with
+    ``n_rec`` records of the record arrays ``keep`` (the others get width 0: the kernel
+    skips them)."""
+    n = low.n
+    nc = max(n - 1, 0)
+    nk = low.cons.shape[0]
+    nb = n if low.braked else 0
+    nf = n if low.fluid else 0
+
+    def cols(key: str, width: int) -> int:
+        return width if key in keep else 0
+
+    rec = {
+        "x": np.empty((n_rec, cols("x", n))), "v": np.empty((n_rec, cols("v", n))),
+        "a": np.empty((n_rec, cols("a", n))),
+        "d": np.empty((n_rec, cols("d", nc))), "f": np.empty((n_rec, cols("f", nc))),
+        "s": np.empty((n_rec, kernel.N_SCALARS)),
+        "b": np.zeros((n_rec, cols("b", nb))), "p": np.zeros((n_rec, cols("p", nb))),
+        "c": np.zeros((n_rec, cols("c", nk if nk > 1 else 0))),
+        "bp": np.zeros((n_rec, cols("bp", nf))), "ar": np.zeros((n_rec, cols("ar", nf))),
+        "bc": np.zeros((n_rec, cols("bc", nf))),
+        "ax": np.zeros((n_rec, cols("ax", 1 if nf else 0))),
+        "m": np.zeros((n_rec, cols("m", low.drive_z.size), N_DRIVE_SIGNALS)),
+        "e": np.zeros((n_rec, cols("e", N_ENERGY + nc + 1) if low.energy else 0)),
+        "peaks": np.tile([-np.inf, np.inf, 0.0, 0.0], (nc, 1)),
+        "events": np.zeros((MAX_EVENTS, N_EVENT_COLUMNS)),
+    }
+    y = low.y0.copy()
+    ctl = kernel.make_controller(rec["events"])
+    tab = low.tableau
+    stages = tab.stages + 1 if low.adaptive else tab.stages  # (bs23: + the step's end)
+    out = kernel.Outputs(**{k: rec[k] for k in kernel.Outputs._fields})
+    common = (kernel.make_train(low), kernel.make_couplers(low), kernel.make_driver(low),
+              kernel.make_work(n, y.shape[0], stages, nk, low.pipe_dx_cell.size,
+                               air_steps=low.adaptive and low.fluid,
+                               drives=low.drive_z.size, energy=low.energy,
+                               braked=low.braked), out)
+    if low.adaptive:
+        err_atol = low.atol.copy()
+        err_atol[low.gear_f1] = np.inf
+        err_atol[low.gear_plate[low.gear_plate >= 0]] = np.inf
+        grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
+                               h_max=low.max_step,
+                               air_h_max=low.air_max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
+                               b=tab.b, c=tab.c, e=tab.e, err_atol=err_atol,
+                               gear_f1=low.gear_f1, gear_of=low.gear_of,
+                               gear_plate=low.gear_plate, gear_exact=low.gear_exact)
+    else:
+        grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
+                                A=tab.A, b=tab.b, c=tab.c)
+    stepper = kernel.make_stepper(low.dt)  # bs23 carry-over
+    return rec, y, ctl, stepper, grid, common
+
+
+def zero_step_call(low: Lowered):
+    """``(kernel, args)``: the compiled kernel that runs ``low`` (fixed-step
+    :func:`ltdsim.engine.kernel.run` or adaptive :func:`ltdsim.engine.kernel.run_adaptive`) and the
+    arguments of a call that advances nothing. Calling it compiles the kernel for these
+    argument types, or loads it from numba's cache."""
+    _, y, ctl, stepper, grid, common = _buffers(low, 1)
+    if low.adaptive:
+        return kernel.run_adaptive, (y, ctl, stepper, 0, 0, grid, *common)
+    return kernel.run, (y, ctl, 0, 0, grid, *common)
+
+
+def integrate(low: Lowered, scenario: Scenario, progress, chunks):
+    """Run the kernel over the whole scenario."""
+    n_rec_total = low.n_steps // low.record_every + 1
+    try:
+        rec, y, ctl, stepper, grid, common = _buffers(low, n_rec_total, recorded(scenario))
+    except MemoryError:  # the memory went to other work since check_memory looked
+        raise SimulationError(
+            f"not enough memory for the recording ({n_rec_total:,} samples, about "
+            f"{_gb(recording_bytes(scenario))}); raise solver.output_interval or lower "
+            "solver.t_end", time=0.0) from None
+    out_dt = low.record_every * low.dt
+    t_end = low.n_steps * low.dt
+    per_rec = max(1, (n_rec_total - 1) // max(chunks, 1))
+    r = 0
+    k = 0
+    while True:
+        if low.adaptive:
+            r_stop = min(r + per_rec, n_rec_total)
+            status, t_at = kernel.run_adaptive(y, ctl, stepper, r, r_stop, grid, *common)
+            r = r_stop
+            done = r >= n_rec_total
+            t_done = min(r, n_rec_total - 1) * out_dt
+        else:
+            k_stop = min(k + per_rec * low.record_every, low.n_steps)
+            status, k_end = kernel.run(y, ctl, k, k_stop, grid, *common)
+            t_at = k_end * low.dt
+            k = k_stop
+            done = k >= low.n_steps
+            t_done = k * low.dt
+        if status == kernel.EVENTS_FULL:
+            raise SimulationError(
+                f"more than {MAX_EVENTS} brake commands by t = {t_at:.6g} s; raise "
+                "brake.level_step or give fewer commands", time=t_at)
+        if status != kernel.OK:
+            raise _nonfinite_error(scenario, low, y, t_at)
+        if progress is not None:
+            progress(t_done, t_end)
+        if done:
+            break
+    rec["n_events"] = int(ctl.state[0]["n_events"])
+    st = stepper[0]
+    rec["steps"] = (int(st["accepted"]), int(st["rejected"])) if low.adaptive else (low.n_steps, 0)
+    air = common[3].air_step[0]
+    rec["air_steps"] = (int(air["accepted"]), int(air["rejected"]))
+    return rec
+
+
+def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) -> SimulationError:
+    n = low.n
+    x, v = y[:n], y[n:2 * n]
+    bad = np.flatnonzero(~(np.isfinite(x) & np.isfinite(v)))
+    i = int(bad[0]) if bad.size else None
+    if low.adaptive:
+        parts = [f"bs23 found no finite step beyond t = {t:.6g} s (step size fell below "
+                 "1e-12 s)"]
+    else:
+        # (the kernel checks the state at record steps: it was finite at the one before)
+        k = round(t / low.dt)
+        k0 = max(((k - 1) // low.record_every) * low.record_every, 0)
+        parts = [f"simulation state became non-finite between t = {k0 * low.dt:.6g} s and "
+                 f"t = {t:.6g} s (steps {k0} to {k}; the state is checked at every record)"]
+    if i is not None:
+        parts.append(f"vehicle {i + 1} ({scenario.vehicles[i].name!r}; 1 = lead): "
+                     f"displacement = {x[i]:.6g} m, velocity = {v[i]:.6g} m/s")
+    j = None
+    if n > 1:
+        d = x[:-1] - x[1:] + low.d0
+        badc = np.flatnonzero(~np.isfinite(d))
+        if badc.size:
+            j = int(badc[0])
+            parts.append(f"coupler {j + 1} (between vehicles {j + 1} and {j + 2}): "
+                         f"deflection = {d[j]:.6g} m")
+    parts.append("hint: reduce solver.dt (or bs23 tolerances), or check stiffness and damping "
+                 "against the masses")
+    return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)

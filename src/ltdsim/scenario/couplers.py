@@ -1,0 +1,374 @@
+"""``[couplers]``: one schema class per coupler model (a discriminated union on ``model``),
+gear presets merged before validation, the shared keys of a coupling (its slack and
+gears), and the per-coupler overrides.
+"""
+
+from __future__ import annotations
+
+import math
+import typing
+from typing import Annotated, Literal, Optional, Union
+
+from pydantic import (
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Tag,
+    TypeAdapter,
+    create_model,
+    model_validator,
+)
+
+from ltdsim.data import load_preset, preset_names
+
+from ltdsim.scenario._base import Points, _Strict, _check_table
+
+
+def gear_presets() -> tuple[str, ...]:
+    """Names of the shipped draft-gear parameter sets (``preset = NAME`` in a coupler)."""
+    return preset_names("gears")
+
+
+class STable(_Strict):
+    """Lubrication factor S(impact speed, deflection) as a 2-D table (paper Eq. 2)."""
+
+    velocity: list[float] = Field(min_length=1, description="impact speeds, m/s")
+    deflection: list[float] = Field(min_length=1, description="gear deflections, m")
+    values: list[list[float]] = Field(min_length=1, description="S, one row per speed, -")
+
+    @model_validator(mode="after")
+    def _shape(self):
+        for name in ("velocity", "deflection"):
+            xs = getattr(self, name)
+            if any(b <= a for a, b in zip(xs, xs[1:])):
+                raise ValueError(f"{name} must be strictly increasing, got {xs}")
+        if len(self.values) != len(self.velocity) or any(
+                len(r) != len(self.deflection) for r in self.values):
+            raise ValueError(f"values must be {len(self.velocity)} rows (speeds) of "
+                             f"{len(self.deflection)} numbers (deflections)")
+        if any(not 0.0 <= v <= 10.0 for r in self.values for v in r):
+            raise ValueError("S values must lie in [0, 10]")
+        return self
+
+
+#: the model a coupler without a ``model`` key (and without a preset naming one) takes
+DEFAULT_COUPLER_MODEL = "simplified"
+
+
+class _CouplerBase(_Strict):
+    """Keys every coupler model has: its preset, model, slack and solid closure.
+
+    Each model is one class below, a member of the discriminated union :data:`Coupler`
+    on ``model``: a key of another model is refused. Keys a model needs but that have
+    no default are checked together (one line naming all missing keys).
+    """
+
+    #: keys the model needs (None is not allowed once presets are merged)
+    _required: typing.ClassVar[tuple[str, ...]] = ()
+
+    preset: str | None = Field(None, description="named gear parameter set to start from "
+                                                 "(its keys under the ones given)")
+    model: str = Field(DEFAULT_COUPLER_MODEL, description="coupler model")
+    slack: float = Field(0.0, ge=0.0, le=1.0, description="total free play of the coupling, m")
+    # a coupling between two vehicles has a draft gear in each vehicle's end: with 2, the
+    # model's parameters describe one gear and two alike act in series (same force, each
+    # deflects by half the coupling's deflection beyond the slack); with 1 they describe
+    # the whole coupling (coupler_models.COMMON_COLUMNS, docs/model.md#one-coupling)
+    gears: int = Field(1, ge=1, le=2, description="gears in series in the coupling, each "
+                                                  "described by the model's keys, -")
+    # gear travel beyond the slack to solid closure (optional for linear and simplified,
+    # required for friction_wedge, table: its last point) and the solid gear's stiffness
+    # (physics.couplers.solid_closure)
+    travel: float | None = Field(None, gt=0.0, le=1.0,
+                                 description="gear travel beyond the slack to solid "
+                                             "closure, m (none: never closes)")
+    solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12,
+                                   description="stiffness of the gear closed solid, beyond "
+                                               "travel, N/m")
+
+    @model_validator(mode="after")
+    def _complete(self):
+        missing = [k for k in self._required if getattr(self, k) is None]
+        missing += self._missing_extra()
+        if missing:
+            raise ValueError(f"model {self.model!r} needs {', '.join(missing)}")
+        self._check()
+        return self
+
+    def _missing_extra(self) -> list[str]:
+        return []
+
+    def _check(self) -> None:
+        """Model-specific consistency checks (ValueError with one line)."""
+
+
+#: the keys every coupler model has, besides preset and model (an override that
+#: changes the model keeps the default's values of these)
+SHARED_COUPLER_KEYS = tuple(k for k in _CouplerBase.model_fields if k not in ("preset",
+                                                                              "model"))
+
+
+class LinearCoupler(_CouplerBase):
+    """Linear spring-damper coupler with slack (physics.couplers.coupler_linear)."""
+
+    _required = ("stiffness",)
+
+    model: Literal["linear"] = Field("linear", description="coupler model")
+    stiffness: float | None = Field(None, gt=0.0, le=1e12, description="spring stiffness, N/m")
+    damping: float = Field(0.0, ge=0.0, le=1e9, description="viscous damping, N s/m")
+
+
+class SimplifiedCoupler(_CouplerBase):
+    """The study's simplified nonlinear coupler (paper Eq. 9,
+    physics.couplers.coupler_simplified)."""
+
+    _required = ("k1", "k3", "v_c")
+
+    model: Literal["simplified"] = Field("simplified", description="coupler model")
+    preload: float = Field(0.0, ge=0.0, le=1e7, description="gear preload P, N")
+    damping: float = Field(0.0, ge=0.0, le=1e9, description="damping b, N s/m")
+    k1: float | None = Field(None, gt=0.0, le=1e12, description="recoil (buff) stiffness, N/m")
+    k2: float = Field(0.0, ge=0.0, le=1e12, description="nonlinear (draft) stiffness, N/m")
+    k3: float | None = Field(None, gt=0.0, le=1e12, description="linear (draft) stiffness, N/m")
+    # how the nonlinear stiffness k2 fades (docs/model.md#simplified-coupler): with the
+    # gear's deflection, as Eq. 9 prints it (passive), or with its deflection rate (an
+    # earlier reading, which returns energy when a gear loads fast and unloads slowly)
+    fade: Literal["deflection", "rate"] = Field(
+        "deflection", description="what k2 fades with: the gear deflection "
+                                  "(exp(-e/v_c), v_c in m) or its rate (exp(-|de/dt|/v_c), "
+                                  "v_c in m/s)")
+    v_c: float | None = Field(None, gt=0.0, le=1e3, description="fade constant of k2: a "
+                                                               "deflection, m, or with fade "
+                                                               "= rate a critical velocity, "
+                                                               "m/s")
+
+
+class _HystereticGear(_CouplerBase):
+    """Keys every hysteretic draft gear has (physics.draftgear)."""
+
+    k_locked: float | None = Field(None, gt=0.0, le=1e11,
+                                   description="stiffness of the locked gear, N/m")
+    # the time the gear takes to pass between sliding on a curve and locked (the internal
+    # force's relaxation onto its curve): a property of the gear, the same for every
+    # solver and step; 0.4 ms, the time scale of the gear's own parts (docs/draftgear.md)
+    tracking_time: float = Field(4e-4, gt=0.0, le=1.0,
+                                 description="time constant of the internal states, s")
+
+    @property
+    def damping(self) -> float:
+        """Viscous damping, N s/m: none (a friction gear dissipates through its
+        hysteresis)."""
+        return 0.0
+
+
+class FrictionWedgeGear(_HystereticGear):
+    """The study's four-stage friction-wedge draft gear (paper Eq. 1-7)."""
+
+    _required = ("alpha_deg", "beta_deg", "gamma_deg", "h1", "h2", "h3", "k_locked", "k_m",
+                 "k_r", "x_m0", "x_r0", "plate_gap", "travel")
+
+    model: Literal["friction_wedge"] = Field("friction_wedge", description="coupler model")
+    alpha_deg: float | None = Field(None, gt=0.0, lt=89.0, description="wedge angle alpha, deg")
+    beta_deg: float | None = Field(None, ge=0.0, lt=89.0, description="wedge angle beta, deg")
+    gamma_deg: float | None = Field(None, gt=0.0, lt=89.0, description="wedge angle gamma, deg")
+    h1: float | None = Field(None, ge=0.0, le=1.0, description="kinetic friction coefficient, -")
+    h2: float | None = Field(None, ge=0.0, le=1.0,
+                             description="static excess of the friction coefficient, -")
+    h3: float | None = Field(None, ge=0.0, le=100.0, description="friction decay with speed, s/m")
+    S: float | None = Field(None, ge=0.0, le=10.0, description="lubrication factor, -")
+    S_table: STable | None = Field(None, description="lubrication factor S(impact speed m/s, "
+                                                     "deflection m), - (instead of S)")
+    k_m: float | None = Field(None, gt=0.0, le=1e10, description="main spring stiffness, N/m")
+    k_r: float | None = Field(None, ge=0.0, le=1e10, description="release spring stiffness, N/m")
+    x_m0: float | None = Field(None, ge=0.0, le=1.0, description="main spring pre-deflection, m")
+    x_r0: float | None = Field(None, ge=0.0, le=1.0,
+                               description="release spring pre-deflection, m")
+    plate_gap: float | None = Field(None, ge=0.0, le=1.0,
+                                    description="travel before the movable plates engage, m")
+    plate_backlash: float = Field(0.003, ge=0.0, le=1.0,
+                                  description="backlash of the movable plates, m")
+
+    def _missing_extra(self) -> list[str]:
+        return ["S or S_table"] if self.S is None and self.S_table is None else []
+
+    def _check(self) -> None:
+        if self.alpha_deg + self.gamma_deg >= 85.0:
+            raise ValueError("alpha_deg + gamma_deg must stay below 85 deg (the wedge locks)")
+        # psi_1's denominator must stay positive at the largest friction coefficient
+        mu = self.h1 + self.h2
+        a, g = math.radians(self.alpha_deg), math.radians(self.gamma_deg)
+        if math.tan(a + math.atan(mu)) * math.tan(g + math.atan(mu)) >= 1.0:
+            raise ValueError("wedge angles too steep for the friction: the gear would lock "
+                             "(tan(alpha + atan mu) tan(gamma + atan mu) >= 1)")
+        if self.k_m * self.x_m0 < self.k_r * self.x_r0:
+            raise ValueError("k_m x_m0 must be at least k_r x_r0, or unloading would lie "
+                             "above loading")
+
+
+class TableGear(_HystereticGear):
+    """A hysteretic gear given by measured loading and unloading curves."""
+
+    _required = ("loading", "unloading", "k_locked")
+
+    model: Literal["table"] = Field("table", description="coupler model")
+    loading: Points | None = Field(None, description="[deflection m, force N] loading curve")
+    unloading: Points | None = Field(None,
+                                     description="[deflection m, force N] unloading curve")
+
+    def _check(self) -> None:
+        for name in ("loading", "unloading"):
+            pts = getattr(self, name)
+            _check_table(pts, f"{name} deflections, m", lambda f: 0.0 <= f <= 1e8,
+                         "forces in [0, 1e8] N")
+            if pts[0][0] != 0.0:
+                raise ValueError(f"{name} must start at deflection 0")
+        # a gear resists more the further it is closed: a loading curve never falls
+        for (x0, f0), (x1, f1) in zip(self.loading, self.loading[1:]):
+            if f1 < f0:
+                raise ValueError(f"loading: the force must not decrease with deflection "
+                                 f"(a loading curve is monotone non-decreasing); it falls "
+                                 f"from {f0:g} N at {x0:g} m to {f1:g} N at {x1:g} m")
+        xs = sorted({p[0] for p in self.loading} | {p[0] for p in self.unloading})
+        import numpy as np
+
+        fl = np.interp(xs, *zip(*self.loading))
+        fu = np.interp(xs, *zip(*self.unloading))
+        if np.any(fu > fl + 1e-9 * fl.max()):
+            raise ValueError("the unloading curve must not lie above the loading curve")
+
+
+class PolymerGear(_HystereticGear):
+    """Polymer (elastomer) draft gear: a static curve stiffened by a rate factor of the
+    closing speed, with hysteresis (physics.polymer, docs/draftgear.md)."""
+
+    _required = ("preload", "initial_stiffness", "force_at_travel", "travel", "exponent",
+                 "return_ratio", "gain_loading", "gain_unloading", "rate_speed", "k_locked")
+
+    model: Literal["polymer"] = Field("polymer", description="coupler model")
+    preload: float | None = Field(None, ge=0.0, le=1e7,
+                                  description="static force at zero deflection, N")
+    initial_stiffness: float | None = Field(None, ge=0.0, le=1e10,
+                                            description="static slope at zero deflection, N/m")
+    force_at_travel: float | None = Field(None, gt=0.0, le=1e8,
+                                          description="static loading force at the travel, N")
+    exponent: float | None = Field(None, ge=1.0, le=20.0,
+                                   description="stiffening exponent of the static curve, -")
+    return_ratio: float | None = Field(None, gt=0.0, le=1.0,
+                                       description="static unloading / loading force, -")
+    gain_loading: float | None = Field(None, ge=0.0, le=100.0,
+                                       description="relative rise of the loading curve at "
+                                                   "high closing speed, -")
+    gain_unloading: float | None = Field(None, ge=0.0, le=100.0,
+                                         description="relative rise of the unloading curve "
+                                                     "at high closing speed, -")
+    rate_speed: float | None = Field(None, gt=0.0, le=100.0,
+                                     description="closing-speed scale of the rise, m/s")
+
+    def _check(self) -> None:
+        if self.force_at_travel < self.preload + self.initial_stiffness * self.travel:
+            raise ValueError("force_at_travel must be at least preload + initial_stiffness "
+                             "* travel (the static curve never falls)")
+        if self.return_ratio * self.gain_unloading > self.gain_loading:
+            raise ValueError("return_ratio * gain_unloading must not exceed gain_loading, "
+                             "or unloading would lie above loading at speed")
+
+
+#: the coupler models' schema classes by ``model`` name (the order of
+#: ``ltdsim.engine.couplers.MODEL_NAMES``)
+COUPLER_CLASSES: dict[str, type[_CouplerBase]] = {
+    "linear": LinearCoupler, "simplified": SimplifiedCoupler,
+    "friction_wedge": FrictionWedgeGear, "table": TableGear, "polymer": PolymerGear}
+
+
+class _UnknownCoupler(_Strict):
+    """Stand-in member of the coupler union for an unknown ``model``: its only check
+    refuses the name, listing the models (as a Literal does)."""
+
+    model_config = ConfigDict(extra="ignore", strict=True)
+    model: Literal[tuple(COUPLER_CLASSES)]  # type: ignore[valid-type]
+
+
+#: union tags (bracketed so that error locations leave them out, see _is_internal)
+_TAGS = {f"[{name}]": cls for name, cls in COUPLER_CLASSES.items()}
+
+
+_UNKNOWN_TAG = "[unknown model]"
+
+
+def _merge_preset(data):
+    """``preset = NAME``: the preset's keys under the ones given (None values dropped)."""
+    if isinstance(data, dict) and data.get("preset"):
+        base = load_preset("gears", data["preset"])
+        base.update({k: v for k, v in data.items() if v is not None})
+        return base
+    return data
+
+
+def _coupler_tag(data) -> str:
+    model = data.get("model", DEFAULT_COUPLER_MODEL) if isinstance(data, dict) else \
+        getattr(data, "model", None)
+    tag = f"[{model}]" if isinstance(model, str) else None
+    return tag if tag in _TAGS else _UNKNOWN_TAG
+
+
+#: parameters of one coupler (draft gear and slack): one of the model classes, chosen by
+#: ``model`` (default "simplified"), after merging a ``preset``
+Coupler = Annotated[
+    Union[tuple(Annotated[cls, Tag(tag)] for tag, cls in _TAGS.items())
+          + (Annotated[_UnknownCoupler, Tag(_UNKNOWN_TAG)],)],  # type: ignore[valid-type]
+    Discriminator(_coupler_tag),
+    BeforeValidator(_merge_preset),
+]
+
+
+_COUPLER_ADAPTER = TypeAdapter(Coupler)
+
+
+def CouplerParams(**keys) -> _CouplerBase:  # noqa: N802 (reads as the class it was)
+    """Validate the keys of one coupler (as in ``[couplers.default]``) into its model's
+    class; raises pydantic's ``ValidationError``."""
+    return _COUPLER_ADAPTER.validate_python(keys)
+
+
+def _override_fields() -> dict:
+    """Every key of every coupler model, optional (default None), same ranges: an override
+    may change the model, so it accepts any model's keys; the merged coupler is then
+    validated against its model's class."""
+    fields: dict = {}
+    for cls in COUPLER_CLASSES.values():
+        for key, f in cls.model_fields.items():
+            if key in fields:
+                continue
+            kind = f.annotation
+            if key == "model":
+                kind = Literal[tuple(COUPLER_CLASSES)]  # type: ignore[valid-type]
+            kind = Optional[kind]  # noqa: UP007 (needed for Annotated metadata)
+            if f.metadata:
+                kind = Annotated[kind, *f.metadata]
+            fields[key] = (kind, Field(None, description=f.description))
+    return fields
+
+
+CouplerOverride = create_model(
+    "CouplerOverride", __base__=_Strict,
+    __doc__="Keys of coupler ``index`` that differ from the default.",
+    index=(int, Field(ge=0, description="coupler index, 0 joins vehicles 0 and 1, -")),
+    **_override_fields())
+
+
+class Couplers(_Strict):
+    """``[couplers.default]`` and its ``[[couplers.override]]`` tables.
+
+    An override changes the keys it gives for coupler ``index``. An override with a
+    ``model`` other than the default's keeps only the default's keys that every model
+    shares (:data:`SHARED_COUPLER_KEYS`: slack, gears, travel, solid stiffness) and takes the
+    new model's own keys from itself, so the default's keys of its own model never
+    reach a coupler of another model. An override that names a ``preset`` describes
+    another gear: it keeps only the default's ``slack`` and ``gears`` (the coupling's free
+    play and how many gears it holds, not the gear's own keys) and takes every other key
+    from itself and its preset.
+    """
+
+    default: Coupler
+    override: list[CouplerOverride] = []

@@ -1,0 +1,116 @@
+"""Reading scenario files: TOML in (with one clear line for a file that is not TOML), a
+track profile CSV read beside it, the named case applied, a validated :class:`Scenario`
+out.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+
+from ltdsim.errors import ScenarioError
+
+from ltdsim.scenario.model import Scenario
+
+
+# ---------------------------------------------------------------------- loading
+def load_scenario(path: str | Path, case: str | None = None) -> Scenario:
+    """Read, validate and return the scenario in TOML file ``path``.
+
+    Every named case under ``[cases.*]`` is validated too, so a bad case key fails at
+    load time. With ``case`` given, that case's overrides are applied.
+
+    Raises
+    ------
+    ScenarioError
+        With the file name, the dotted key and the allowed range for each problem.
+    """
+    path = Path(path)
+    data = read_toml(path)
+    track = data.get("track")
+    if isinstance(track, dict) and isinstance(track.get("profile_file"), str):
+        track["profile"] = read_profile(path.parent / track["profile_file"], str(path))
+    return scenario_from_data(data, str(path), case)
+
+
+def read_profile(path: str | Path, source: str) -> list[list[float]]:
+    """The rows [chainage m, curvature 1/m, cant m] of the alignment CSV ``path`` (a header
+    line of text is skipped), or a :class:`ScenarioError` in one line naming the file
+    and the line. ``source`` is the scenario file that names it."""
+    import csv
+
+    path = Path(path)
+    key = "track.profile_file"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        why = "file not found" if isinstance(exc, FileNotFoundError) else f"cannot read: {exc}"
+        raise ScenarioError(source, [(key, f"{path}: {why}")]) from None
+    rows = []
+    for k, row in enumerate(csv.reader(text.splitlines()), start=1):
+        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+            continue
+        try:
+            vals = [float(c) for c in row]
+        except ValueError:
+            if not rows and k == 1:
+                continue  # header
+            raise ScenarioError(source, [(key, f"{path} line {k}: not three numbers "
+                                               f"(chainage m, curvature 1/m, cant m): "
+                                               f"{','.join(row)!r}")]) from None
+        if len(vals) != 3:
+            raise ScenarioError(source, [(key, f"{path} line {k}: {len(vals)} columns, "
+                                               "expected 3 (chainage m, curvature 1/m, "
+                                               "cant m)")])
+        rows.append(vals)
+    if not rows:
+        raise ScenarioError(source, [(key, f"{path}: no data rows")])
+    return rows
+
+
+def scenario_from_data(data: dict, source: str, case: str | None = None) -> Scenario:
+    """:func:`load_scenario` of a table already read (``source`` names it in messages):
+    the scenario and every case validated, ``case`` applied."""
+    scenario = Scenario.from_dict(data, source)
+    for name in scenario.cases:
+        scenario.with_case(name, source)
+    if case is not None:
+        scenario = scenario.with_case(case, source)
+    return scenario
+
+
+def read_toml(path: str | Path, what: str = "scenario file") -> dict:
+    """The table in TOML file ``path``, or a :class:`ScenarioError` in one line naming the
+    file and what is wrong with it: missing, a folder, unreadable (permissions), not UTF-8
+    text (a binary file, or a byte of another encoding in a string or comment; the line
+    and column are given), or not valid TOML."""
+    path = Path(path)
+    source = str(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise ScenarioError(source, [("", "file not found")]) from None
+    except IsADirectoryError:
+        raise ScenarioError(source, [("", f"is a folder, not a {what} (give the .toml "
+                                          "file)")]) from None
+    except PermissionError:
+        raise ScenarioError(source, [("", "cannot read the file: permission denied")]) from None
+    except OSError as exc:
+        raise ScenarioError(source, [("", f"cannot read the file: "
+                                          f"{exc.strerror or exc}")]) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        col = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        kind = ("a binary file, not TOML text" if b"\0" in raw[:8192] else
+                "not UTF-8 text")
+        raise ScenarioError(source, [("", f"{kind}: byte 0x{raw[exc.start]:02x} at line "
+                                          f"{line}, column {col} (TOML files are UTF-8: "
+                                          "save the file as UTF-8)")]) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        kind = "a binary file, not TOML text" if "\0" in text[:8192] else "not valid TOML"
+        raise ScenarioError(source, [("", f"{kind}: {exc}")]) from None
