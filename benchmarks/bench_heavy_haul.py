@@ -7,7 +7,7 @@ fixed-step ode3 kernel (dt = 1e-4 s) on windows of the same trip in the same pro
 would cost at that rate. With the couplers' peak forces of the whole trip under
 fixed-step ode3 at 1e-4 s (``--fixed``; ``--make-fixed`` writes it: half an hour to an
 hour of CPU) it also checks the trip's accuracy as issue 18 asks, by the standard of
-tests/test_heavy_haul.py: the peak tensions and compressions averaged over the train
+tests/engine/test_heavy_haul.py: the peak tensions and compressions averaged over the train
 within 2 %, the train's largest within 2 % plus what halving the fixed step moves them
 (from the same trip at 5e-5 s, ``--fixed-half``; ``--make-fixed 5e-5`` writes it, twice
 as long; without it the allowance is 2 %). ``--make-fixed`` runs that one trip, writes
@@ -132,7 +132,7 @@ def main(argv=None) -> dict:
                       "mean_tension": h["mx"].mean() / z["mx"].mean() - 1.0,
                       "mean_compression": h["mn"].mean() / z["mn"].mean() - 1.0}
         # (the averages are held to 2 % flat, the train's largest forces to 2 % plus
-        # the spread, as tests/test_heavy_haul.py does)
+        # the spread, as tests/engine/test_heavy_haul.py does)
         allowed = {k: 0.02 + (spread[k] if k.startswith("top_") else 0.0) for k in accuracy}
         ok = all(abs(accuracy[k]) <= allowed[k] for k in accuracy)
         rows += [

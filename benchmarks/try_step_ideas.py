@@ -10,7 +10,7 @@ reference). Runs the reference and every variant over the first
 variant, accepted and rejected steps, the median CPU time (time.process_time: the
 machine is shared and loaded, so wall time drifts) and its ratio to the reference's,
 and the couplers' peak forces against fixed-step ode3 at 1e-4 s and 5e-5 s (the
-accuracy checks of tests/test_heavy_haul.py: peaks averaged over the train within 2 %,
+accuracy checks of tests/engine/test_heavy_haul.py: peaks averaged over the train within 2 %,
 the single largest tension and compression within 2 % plus the spread that halving
 the fixed step produces). The fixed-step runs are cached in /tmp (they take minutes).
 

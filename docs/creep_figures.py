@@ -5,7 +5,7 @@ Run: ``python docs/creep_figures.py`` (writes docs/creep_curves.png and docs/cre
 and prints the numbers the text quotes). The wheelset is the study's locomotive's
 (66.63 t static mass on 6 driven axles, ``creep_schema.Wheelset`` defaults, motor rotor
 15 kg m^2); it pulls the study's whole train (884 t dynamic mass) divided by 6 axles.
-Integrated by scipy's LSODA, the same rig as tests/test_creep.py.
+Integrated by scipy's LSODA, the same rig as tests/physics/test_creep.py.
 """
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 
 Run: ``python docs/creep_measured_figures.py`` (writes docs/creep_eurosprinter.png and
 prints the numbers the text quotes). The case, the measured points and CONTACT's curves
-are read from tests/data/eurosprinter_creep.toml (which names their sources); ltdsim's
+are read from tests/physics/data/eurosprinter_creep.toml (which names their sources); ltdsim's
 curve is its Polach law with the ``eurosprinter`` preset on the Hertz ellipse of the case,
-evaluated as tests/test_creep_measured.py evaluates it.
+evaluated as tests/physics/test_creep_measured.py evaluates it.
 """
 
 from __future__ import annotations

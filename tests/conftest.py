@@ -65,3 +65,29 @@ def chain_reference():
     f, y0 = make_rhs(sc)
     sol = solve_ivp(f, (0.0, 2.0), y0, method="DOP853", rtol=1e-13, atol=1e-13)
     return sol.y[:, -1]
+
+
+# a wagon's brake: cylinder force (N) and rigging ratio (-)
+BRAKE = {"cylinder_force": 3.0e4, "rigging_ratio": 6.0}
+
+
+def single_braked_wagon(v0, friction, t_end, method="ode3", dt=1e-3):
+    """One wagon at v0 (m/s) braked fully at t = 0 with the given friction keys."""
+    d = train_dict([9e4], force=0.0, dt=dt, t_end=t_end, speed=v0, method=method,
+                   output_interval=0.01)
+    d["vehicles"][0]["brake"] = dict(BRAKE, **friction)
+    d["brake"] = {"mode": "ecp", "apply_time_constant": 1e-3}
+    d["driver"]["brake_profile"] = [[0.0, 1.0]]
+    return d
+
+
+def short_paper(tmp_path, keep=("LHHL", "HHHH")):
+    """The study's scenario file cut to the cases named in keep, written under tmp_path."""
+    text = PAPER.read_text()
+    head, _, cases = text.partition("[cases.")
+    blocks = ("[cases." + cases).split("\n[cases.")
+    kept = [b if b.startswith("[cases.") else "[cases." + b for b in blocks
+            if any(b.removeprefix("[cases.").startswith(k) for k in keep)]
+    p = tmp_path / "paper-short.toml"
+    p.write_text(head + "\n".join(kept))
+    return p

@@ -4,7 +4,7 @@ Every model class reachable from :class:`ltdsim.scenario.Scenario` becomes one t
 for each key its dotted path (as ``--set`` and error messages spell it; ``<i>`` stands
 for an index), type, unit, default, allowed values and meaning. Units, ranges and
 defaults come from the pydantic fields, so the document cannot drift from the code:
-``tests/test_schema_doc.py`` fails when the file differs from what this module writes.
+``tests/scenario/test_schema_doc.py`` fails when the file differs from what this module writes.
 
 Rewrite the tables in place with ``python -m ltdsim.scenario.doc`` (``--check`` only
 reports whether they are current). The tables sit between marker comments::

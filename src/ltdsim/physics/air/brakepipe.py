@@ -77,7 +77,7 @@ Mass is conserved exactly. The mass of cell ``i`` is ``A dx_i p_i / (R T)``; eve
 flow leaves one cell and enters its neighbour, so the sum of ``dm_i/dt`` is the sum of
 inflows minus leaks, by construction and to rounding (about 1e-16 relative) at every
 Runge-Kutta stage. An explicit Runge-Kutta step is a linear combination of stage rates,
-so it conserves the total too (tests/test_brake_pipe.py checks 1e-9 over a transient).
+so it conserves the total too (tests/physics/test_brake_pipe.py checks 1e-9 over a transient).
 
 Waves at the right speed. Without friction and flow the scheme is the semi-discrete wave
 equation ``p_tt = R T (second difference of p)``: the wave speed ``sqrt(R T)`` enters

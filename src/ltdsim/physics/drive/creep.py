@@ -201,7 +201,7 @@ def creep_row(table: dict) -> np.ndarray:
 # S. Stichel, Rail Vehicle Dynamics, Springer 2017). Rows are ``a / b`` (a along the rail),
 # from 0.1 up to 1 and then ``b / a`` from 1 down to 0.1, written here as a / b. All 19
 # values equal Kalker's Table E.3 (1990) as the CONTACT code of Vollebregt and Kalker
-# carries it (tests/test_creep.py). The material's Poisson's ratio is 0.28, not 0.25:
+# carries it (tests/physics/test_creep.py). The material's Poisson's ratio is 0.28, not 0.25:
 # c11 would be about 2 % larger (docs/creep.md gives the effect on the peaks).
 _KALKER_AB = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0,
                        1 / 0.9, 1 / 0.8, 1 / 0.7, 1 / 0.6, 1 / 0.5, 1 / 0.4, 1 / 0.3,

@@ -5,13 +5,11 @@ recording, read from the Scenario rather than from ltdsim's lowered tables) agai
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 
 import ltdsim
 
-from conftest import PAPER, ROOT
+from conftest import PAPER
 
 import reference_kernel
 import bench_kernel

@@ -263,7 +263,7 @@ def test_speed_mode_at_speed_follows_the_controller_within_the_limits(speed):
 
     from ltdsim.scenario import load_scenario
 
-    root = Path(__file__).resolve().parents[1] / "scenarios"
+    root = Path(__file__).resolve().parents[2] / "scenarios"
     s = load_scenario(root / "paper-induction.toml").with_overrides(
         {"solver.t_end": 1.0, "solver.output_interval": 1e-4, "initial.speed": speed,
          "driver.speed_profile": [[0.0, speed], [100.0, speed]]})

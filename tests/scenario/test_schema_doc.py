@@ -20,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from ltdsim.scenario import doc as schemadoc
 from ltdsim.scenario import Scenario
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "scenario.md"
+DOC = Path(__file__).resolve().parents[2] / "docs" / "scenario.md"
 
 
 # ------------------------------------------------- an independent reading of the schema

@@ -24,7 +24,7 @@ from ltdsim.scenario import STUDY_PHASES
 from ltdsim.results.summary import stopping
 
 from conftest import PAPER, ROOT, build, train_dict
-from test_brakes_traction import BRAKE, single_braked_wagon
+from conftest import BRAKE, single_braked_wagon
 
 runner = CliRunner()
 

@@ -21,7 +21,7 @@ pixels, written by CONTACT's ``examples/plot_results.m``. This script:
    points below 4.9 % creepage from the 0-5 % image (5.4 times the resolution) and the
    rest from the 0-25 % image.
 
-Run: ``python tests/data/digitise_eurosprinter.py /path/to/CONTACT.git`` (a git
+Run: ``python tests/physics/data/digitise_eurosprinter.py /path/to/CONTACT.git`` (a git
 directory of the repository eve70a/CONTACT); it prints the ``[measured]`` arrays.
 Needs Pillow (a matplotlib dependency) and scipy.
 """

@@ -1,6 +1,6 @@
 """ltdsim's creep law (Polach) against a measured case: the Eurosprinter at 10 m/s.
 
-The case (tests/data/eurosprinter_creep.toml, which names every number's source): the
+The case (tests/physics/data/eurosprinter_creep.toml, which names every number's source): the
 traction coefficient F/Q of the Siemens Eurosprinter 127 001 measured against the
 longitudinal creepage on tangent track at 10 m/s (Engel, Beck and Alders 1998; the case
 Polach 2005 validated his model on), 106.7 kN per wheel, 625 mm wheel radius, contact

@@ -25,7 +25,7 @@ from conftest import build
 #: keys that are not columns of these tables, and where they go instead
 ELSEWHERE = {
     Vehicle: {"name": "labels only", "count": "expanded at validation",
-              "geometry": "the curving indicators after the run (tests/test_curving.py)",
+              "geometry": "the curving indicators after the run (tests/results/test_curving.py)",
               "brake": "its own keys, below", "davis": "its own keys, below"},
     Traction: {"drive": "test_induction_drive_keys_land_in_their_rows",
                "motor": "test_induction_drive_keys_land_in_their_rows",
@@ -310,7 +310,7 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
         Locomotive: {"name", "vehicles", "max_force", "max_power", "adhesion_mass",
                      "time_constant", "jerk_limit", "notch_profile", "brake_control",
                      "drive"},  # (drive: test_induction_drive_keys_land_in_their_rows)
-        # the plane alignment: tests/test_curving.py (the curve resistance reads
+        # the plane alignment: tests/results/test_curving.py (the curve resistance reads
         # transitions and profile through Track.resistance_curve, checked there)
         Track: set(track) | {"transitions", "cant", "profile", "profile_file",
                              "rail_spacing"},

@@ -1,4 +1,4 @@
-"""The valves of the fluid air brake on a single-vehicle rig (tests/_valve_rig.py: one
+"""The valves of the fluid air brake on a single-vehicle rig (tests/physics/_valve_rig.py: one
 driver's valve feeding one vehicle's pipe volume, one control valve drawing from it,
 classical Runge-Kutta at a fixed 1 ms step), against the UIC timing windows, the
 isothermal mass balance (Boyle's law), the published North American pressures and the

@@ -17,7 +17,7 @@ from ltdsim.progress import COMPILING, Display
 from ltdsim.engine.warmup import KernelCall, warm_up
 
 from conftest import ROOT
-from test_study import short_paper
+from conftest import short_paper
 
 STAMP = r"\d\d:\d\d:\d\d "
 

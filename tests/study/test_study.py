@@ -15,20 +15,9 @@ import pytest
 from ltdsim.errors import ScenarioError
 from ltdsim.study.stages import run_study
 
-from conftest import PAPER
+from conftest import short_paper
 
 SHORT = {"solver.t_end": 12.0}
-
-
-def short_paper(tmp_path, keep=("LHHL", "HHHH")):
-    text = PAPER.read_text()
-    head, _, cases = text.partition("[cases.")
-    blocks = ("[cases." + cases).split("\n[cases.")
-    kept = [b if b.startswith("[cases.") else "[cases." + b for b in blocks
-            if any(b.removeprefix("[cases.").startswith(k) for k in keep)]
-    p = tmp_path / "paper-short.toml"
-    p.write_text(head + "\n".join(kept))
-    return p
 
 
 class _Tables(HTMLParser):

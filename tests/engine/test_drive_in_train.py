@@ -245,7 +245,7 @@ def test_a_stiff_drive_gives_the_curve_s_coupler_forces_per_phase():
     (paper.toml, case LHHL), over its first 130 s: in each of the study's phases in it
     (acceleration, curving, deceleration) the RMS force of every coupler is within 5 %
     of the curve run's (the issue's check)."""
-    root = Path(__file__).resolve().parents[1] / "scenarios"
+    root = Path(__file__).resolve().parents[2] / "scenarios"
     short = {"solver.t_end": 130.0}
     curve_s = load_scenario(root / "paper.toml", case="LHHL").with_overrides(short)
     stiff_s = load_scenario(root / "paper-induction-stiff.toml").with_overrides(short)

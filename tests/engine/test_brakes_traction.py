@@ -14,10 +14,7 @@ from scipy.integrate import quad
 import ltdsim
 from ltdsim.physics import karwatzki, traction_limit
 
-from conftest import build, train_dict
-
-BRAKE = {"cylinder_force": 3.0e4, "rigging_ratio": 6.0}
-
+from conftest import BRAKE, build, single_braked_wagon, train_dict
 
 def braked_train(n_wagons, mode, level=0.8, t_cmd=1.0, speed=10.0, dt=1e-3, t_end=4.0):
     d = train_dict([1.2e5] + [9e4] * n_wagons, force=0.0, dt=dt, t_end=t_end, speed=speed,
@@ -57,15 +54,6 @@ def test_remote_locomotive_vents_the_pipe_from_the_middle():
     p0 = ds.position.values[0]
     expected = 1.0 + np.minimum(np.abs(p0 - p0[0]), np.abs(p0 - p0[16])) / 250.0
     assert np.all(first >= expected - 1e-9) and np.all(first - expected <= 1e-3 + 1e-9)
-
-
-def single_braked_wagon(v0, friction, t_end, method="ode3", dt=1e-3):
-    d = train_dict([9e4], force=0.0, dt=dt, t_end=t_end, speed=v0, method=method,
-                   output_interval=0.01)
-    d["vehicles"][0]["brake"] = dict(BRAKE, **friction)
-    d["brake"] = {"mode": "ecp", "apply_time_constant": 1e-3}
-    d["driver"]["brake_profile"] = [[0.0, 1.0]]
-    return d
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
