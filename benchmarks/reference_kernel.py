@@ -18,7 +18,7 @@ coupler forces agree with ltdsim's to round-off: a check that the two simulate t
 train. The stepping, the force balance, the track and profile look-ups and the
 recording are written out here.
 
-Used by benchmarks/bench_kernel.py and tests/testreference_kernel.py.
+Used by benchmarks/bench_kernel.py and tests/engine/test_reference_kernel.py.
 """
 
 from __future__ import annotations

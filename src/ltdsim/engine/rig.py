@@ -26,7 +26,7 @@ from ltdsim.engine.couplers import (
     released_force,
 )
 from ltdsim.engine.integrators import get_tableau
-from ltdsim.engine.kernel import Couplers, FixedStep, _advance, _interp, _stages
+from ltdsim.engine.kernel import CouplerArrays, FixedStep, _advance, _interp, _stages
 
 MODE_DEFLECTION, MODE_FORCE = 0, 1
 #: the rig's state ``y``: deflection m (+ draft), its rate m/s, then the gear's states
@@ -40,7 +40,7 @@ H_D, H_V, H_F = 0, 1, 2
 class Rig(NamedTuple):
     """One coupler on the rig and what drives it."""
 
-    couplers: Couplers  # the coupler, as coupler 0 of a train (kernel.Couplers)
+    couplers: CouplerArrays  # the coupler, as coupler 0 of a train (kernel.CouplerArrays)
     tables: np.ndarray  # the table store its parameters point into (kernel.Train.tables)
     mode: int  # MODE_DEFLECTION or MODE_FORCE
     mass: float  # driven mass, kg (force mode)
@@ -147,7 +147,7 @@ def rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, metho
     ny = Y_GEAR + N_GEAR_STATES
     y = np.zeros(ny)
     y[Y_GEAR] = f0
-    rig = Rig(couplers=Couplers(model=np.array([model], dtype=np.int64), par=cpl,
+    rig = Rig(couplers=CouplerArrays(model=np.array([model], dtype=np.int64), par=cpl,
                                 uniform=int(model)),
               tables=ctab, mode=int(mode), mass=float(mass),
               t=np.ascontiguousarray(t_tab, dtype=float),

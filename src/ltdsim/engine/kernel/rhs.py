@@ -1,0 +1,172 @@
+"""The train's right-hand side ``dy/dt``: one function per subsystem, in this order:
+:func:`_resistance` (running, grade and curve resistance per vehicle), the brakes
+(:mod:`~ltdsim.engine.kernel.brakes`), traction and the induction drives
+(:mod:`~ltdsim.engine.kernel.traction`), :func:`_couplers` (each coupler's force through
+the registry's dispatch :func:`ltdsim.engine.couplers.coupler_force`) and
+:func:`_force_balance` (each vehicle's acceleration). They pass their results through
+the :class:`~ltdsim.engine.kernel.structs.Work` arrays (``res``, ``bforce``, ``fcons``,
+``force``, ``defl``, ``sig``) and write their states' rates to ``dy``.
+
+A vehicle's grade force and curve resistance are worked out when it enters a piece of
+track and kept in the Work (``tkey``, ``tres``), not at every evaluation; couplers that
+all share the simplified model (``CouplerArrays.uniform``) run a loop of their own, in
+which the compiler knows the model and drops the dispatch.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from ltdsim.engine.couplers import M_SIMPLIFIED, P_D0, coupler_force
+from ltdsim.engine.kernel.brakes import _brakes, _brakes_split
+from ltdsim.engine.kernel.energy import _energy_rates
+from ltdsim.engine.kernel.tables import _segment
+from ltdsim.engine.kernel.traction import _induction, _traction
+from ltdsim.engine.layout import T_G, V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_P0, V_SHARE, V_WMASS
+from ltdsim.physics.resistance import curve_force, davis_force, grade_force
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _resistance(y, tr, w):
+    """Running resistance of every vehicle (N, + opposing forward motion) at state ``y``:
+    Davis terms at its speed, grade and curve resistance of the track segment under it.
+    Writes ``w.res`` and the total to ``w.sig["resistance"]``; returns the total, N.
+
+    A vehicle's grade force and curve resistance depend on its segment only (and on the
+    sign of its speed): they are worked out when it enters a segment and kept in
+    ``w.tres`` (the same numbers, computed once instead of at every evaluation)."""
+    veh = tr.veh
+    hints = w.hints
+    tkey = w.tkey
+    tres = w.tres
+    res = w.res
+    n = veh.shape[0]
+    g = tr.trac[T_G]
+    rtot = 0.0
+    for i in range(n):
+        v = y[n + i]
+        p = veh[i, V_P0] + y[i]
+        r = davis_force(v, veh[i, V_DA], veh[i, V_DB], veh[i, V_DC], veh[i, V_DIV0])
+        kt = _segment(tr.track_pos, p, hints[i])
+        hints[i] = kt
+        if kt != tkey[i]:
+            wm = veh[i, V_WMASS]
+            tkey[i] = kt
+            tres[i, 0] = grade_force(wm, tr.track_grade[kt], g)
+            tres[i, 1] = curve_force(1.0, wm, tr.track_curv[kt], tr.curve_h, g)  # (> 0)
+        r += tres[i, 0]
+        c = tres[i, 1]
+        r += c if v > 0.0 else (-c if v < 0.0 else 0.0)  # curve_force's sign rule
+        rtot += r
+        res[i] = r
+    w.sig[0]["resistance"] = rtot
+    return rtot
+
+
+@njit(cache=True, inline="always")
+def _coupler(j, model, y, n, cpl, ctab, w, dy):
+    """Force (N, + tension) and deflection (m, + draft) of coupler ``j`` of model code
+    ``model`` into ``w.force[j]`` and ``w.defl[j]`` (see :func:`_couplers`)."""
+    d = y[j] - y[j + 1] + cpl[j, P_D0]
+    dd = y[n + j] - y[n + j + 1]
+    w.force[j] = coupler_force(j, model, d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
+    w.defl[j] = d
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _couplers(y, tr, cp, w, dy):
+    """Force (N, + tension) and deflection (m, + draft) of every coupler at state
+    ``y``, written to ``w.force`` and ``w.defl``; the hysteretic gears' state rates go
+    to ``dy`` (:func:`coupler_force`).
+
+    A train whose couplers all share the simplified model (``cp.uniform``) runs a loop
+    of its own, in which the compiler knows the model and drops the dispatch; the
+    arithmetic is the same."""
+    cpl = cp.par
+    ctab = tr.tables
+    n = tr.veh.shape[0]
+    u = cp.uniform
+    if u == M_SIMPLIFIED:
+        for j in range(n - 1):
+            _coupler(j, u, y, n, cpl, ctab, w, dy)
+    else:
+        for j in range(n - 1):
+            _coupler(j, cp.model[j], y, n, cpl, ctab, w, dy)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _force_balance(y, tr, w, dy):
+    """Newton's second law for every vehicle: its share of its consist's force, minus
+    its resistance and brake force, plus the coupler forces from its neighbours (all N)
+    over its mass gives its acceleration (m/s^2), written to ``dy[n:2n]``; its speed
+    (m/s) is its displacement's rate, ``dy[0:n]``."""
+    veh = tr.veh
+    inv_m = tr.inv_m
+    fcons = w.fcons
+    res = w.res
+    force = w.force
+    n = veh.shape[0]
+    for i in range(n):
+        # (an unpowered vehicle has share 0 and reads consist 0: no branch in the loop)
+        f = veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
+        if i < n - 1:
+            f -= force[i]
+        if i > 0:
+            f += force[i - 1]
+        dy[i] = y[n + i]
+        dy[n + i] = f * inv_m[i]
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
+    """Right-hand side ``dy/dt`` at ``(t, y)``, written to ``dy`` (``len(y)`` elements):
+    resistance, brakes, traction, couplers, force balance, in that order.
+
+    ``tr``, ``cp``, ``dr``: :class:`Train`, :class:`CouplerArrays`, :class:`DriverArrays`;
+    ``a_dem`` the demanded acceleration held by the speed controller (m/s^2);
+    ``events[:n_events]`` the brake commands issued so far. Also fills, in the
+    :class:`Work` ``w``: ``force``/``defl`` (coupler force N, deflection m), ``res``
+    (resistance per vehicle, N), ``bforce`` (air-brake force per vehicle, N, + opposing
+    forward motion), ``fcons`` (force of each locomotive consist, N) and the signals
+    ``sig`` (total traction force N, traction demand before the traction-curve limits
+    N, total resistance N). ``w.hints`` holds search cursors (``[0, n)`` track, ``n``
+    driver profile, ``n + 1`` speed profile); they change only how fast a lookup is,
+    never its result.
+    """
+    rtot = _resistance(y, tr, w)
+    _brakes(t, y, events, n_events, tr, dr, w, dy)
+    _traction(t, y, a_dem, rtot, tr, dr, w, dy)
+    _induction(y, tr, w, dy)
+    _couplers(y, tr, cp, w, dy)
+    _force_balance(y, tr, w, dy)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def rhs_split(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
+    """:func:`rhs` for :func:`run_adaptive`, which advances the fluid brake's pneumatic
+    states on their own steps: with ``brake.model = "fluid"``, ``y`` and ``dy`` hold
+    the mechanical states only (those before ``tr.air.index[I_PIPE]``) and the brakes
+    read the pneumatic step's interpolant (:func:`_brakes_split`). Otherwise the same
+    as :func:`rhs`, operation for operation."""
+    rtot = _resistance(y, tr, w)
+    _brakes_split(t, y, events, n_events, tr, dr, w, dy)
+    _traction(t, y, a_dem, rtot, tr, dr, w, dy)
+    _induction(y, tr, w, dy)
+    _couplers(y, tr, cp, w, dy)
+    _force_balance(y, tr, w, dy)
+    _energy_rates(y, tr, w, dy)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _train_rhs(t, y, dy, p):
+    """:func:`rhs` in the form :func:`_stages` calls: ``p = (a_dem, n_events, tr, cp,
+    dr, events, w)``, its arguments after ``y``."""
+    a_dem, n_events, tr, cp, dr, events, w = p
+    rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _train_rhs_split(t, y, dy, p):
+    """:func:`rhs_split` in the form :func:`_stages` calls (as :func:`_train_rhs`)."""
+    a_dem, n_events, tr, cp, dr, events, w = p
+    rhs_split(t, y, a_dem, n_events, tr, cp, dr, events, w, dy)

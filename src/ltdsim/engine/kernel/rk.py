@@ -1,0 +1,183 @@
+"""Runge-Kutta primitives shared by every loop: the stage routine, the step's end, the
+finite check, the embedded pair's solution and error, and its step-size controller.
+
+One stage routine, :func:`_stages`, computes the stages of any explicit Runge-Kutta
+tableau for any right-hand side passed to it as a compiled function (numba compiles it
+once per right-hand side): the train's in :func:`~ltdsim.engine.kernel.stepping.run`
+and :func:`~ltdsim.engine.kernel.stepping.run_adaptive`, the gear rig's in
+:mod:`ltdsim.engine.rig`. :func:`_advance` ends a fixed step (``run`` and the rig),
+written out for three and four stages (ode3, rk4) in one pass over the state.
+
+The embedded pair (bs23, :data:`ltdsim.engine.integrators.BS23`) steps the train's
+mechanical states in :func:`~ltdsim.engine.kernel.stepping.run_adaptive` and the fluid
+brake's pneumatic states on their own steps
+(:func:`~ltdsim.engine.kernel.brakes._air_step`); both form the kept solution with
+:func:`pair_solution`, the error estimate with :func:`pair_error` and scale it with
+:func:`scaled_error`, and both choose the next step with :func:`step_accepted` or
+:func:`step_rejected`: one proportional-integral controller (Gustafsson's), whose
+exponents follow from the pair's order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ltdsim.engine.integrators import BS23
+
+#: the pair's error estimate shrinks as h^ERROR_ORDER: its lower (second) order plus one,
+#: the order of its kept solution
+ERROR_ORDER = float(BS23.order)
+#: step-size control: the share of the step the error estimate asks for that is taken, -
+SAFETY = 0.9
+#: the smallest and largest change of the step in one go, -
+MIN_FACTOR, MAX_FACTOR = 0.2, 5.0
+#: Gustafsson's PI controller: exponents of this step's error and of the last accepted
+#: step's, times 1 / ERROR_ORDER (a plain controller: 1 and 0)
+PI_ALPHA, PI_BETA = 0.7, 0.4
+#: the last accepted step's error counts as at least this (an error of 0 says nothing), -
+ERROR_FLOOR = 1e-4
+#: the shortest step, s: a step rejected below it ends the run with a non-finite state
+MIN_STEP = 1e-12
+
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _stages(f, p, t, y, h, A, C, ns, K, ytmp):
+    """Stages 2 to ``ns`` of an explicit Runge-Kutta step of size ``h`` (s) from
+    ``(t, y)`` of the right-hand side ``f(t, y, dy, p)`` (a compiled function writing
+    ``dy/dt`` to ``dy``; ``p`` its other arguments, one tuple), given stage 1 at
+    ``K[0:ny]``: stage s is ``f`` at ``t + C[s] h`` and ``y + h sum_j A[s, j] K_j``,
+    written to ``K[s * ny:(s + 1) * ny]``; ``ytmp`` (``ny`` elements) holds the stage
+    state. The one stage routine of :func:`run`, :func:`run_adaptive` and the gear rig
+    (:mod:`ltdsim.analysis.gears`)."""
+    ny = y.shape[0]
+    for s in range(1, ns):
+        # (loops over the state innermost, one pass per nonzero coefficient: vectorised)
+        first = True
+        for j in range(s):
+            wt = h * A[s, j]
+            if wt != 0.0:
+                o = j * ny
+                if first:
+                    for q in range(ny):
+                        ytmp[q] = y[q] + wt * K[o + q]
+                    first = False
+                else:
+                    for q in range(ny):
+                        ytmp[q] += wt * K[o + q]
+        if first:
+            for q in range(ny):
+                ytmp[q] = y[q]
+        f(t + C[s] * h, ytmp, K[s * ny:(s + 1) * ny], p)
+
+
+@njit(cache=True, inline="always")
+def _advance(y, h, B, ns, K, inc):
+    """End of a Runge-Kutta step of size ``h`` (s): ``y += h sum_s B[s] K_s`` over the
+    ``ns`` stages at ``K[s * ny:(s + 1) * ny]``, the increment summed first (from 0, in
+    stage order) for accuracy. The step's end for :func:`run` and the gear rig.
+
+    Three and four stages (ode3, rk4) are written out, one pass over the state; other
+    methods sum in ``inc`` (``ny`` elements), a pass per stage. Both forms add the same
+    terms in the same order (the leading ``0.0 +`` included), so the result does not
+    depend on the form."""
+    ny = y.shape[0]
+    if ns == 3:
+        w0, w1, w2 = h * B[0], h * B[1], h * B[2]
+        for q in range(ny):
+            y[q] += ((0.0 + w0 * K[q]) + w1 * K[ny + q]) + w2 * K[2 * ny + q]
+        return
+    if ns == 4:
+        w0, w1, w2, w3 = h * B[0], h * B[1], h * B[2], h * B[3]
+        for q in range(ny):
+            y[q] += (((0.0 + w0 * K[q]) + w1 * K[ny + q]) + w2 * K[2 * ny + q]) \
+                + w3 * K[3 * ny + q]
+        return
+    for q in range(ny):
+        inc[q] = 0.0
+    for s in range(ns):
+        wt = h * B[s]
+        o = s * ny
+        for q in range(ny):
+            inc[q] += wt * K[o + q]
+    for q in range(ny):
+        y[q] += inc[q]
+
+
+@njit(cache=True, inline="always")
+def _finite(y):
+    """True when every element of ``y`` is finite (their sum is; a sum overflowing to
+    inf counts as not finite). A state that is not finite stays so: every later step
+    adds to it, so checking now and then finds it at the next check."""
+    total = 0.0
+    for q in range(y.shape[0]):
+        total += y[q]
+    return total - total == 0.0
+
+
+@njit(cache=True, inline="always")
+def pair_solution(y, k1, k2, k3, h, B, lo, hi, out):
+    """The embedded pair's kept solution over a step of size ``h`` (s) from ``y`` with
+    its three stages ``k1, k2, k3`` (rates, units of the state per s) and weights ``B``,
+    ``y + h (B_0 k1 + B_1 k2 + B_2 k3)``, into ``out[lo:hi]``; True when every element is
+    finite (a flag, not a running sum: no chain of dependent additions)."""
+    b0, b1, b2 = B[0], B[1], B[2]
+    finite = True
+    for q in range(lo, hi):
+        v = y[q] + h * (b0 * k1[q] + b1 * k2[q] + b2 * k3[q])
+        out[q] = v
+        finite &= (v - v) == 0.0
+    return finite
+
+
+@njit(cache=True, inline="always")
+def pair_error(q, k1, k2, k3, k4, h, E):
+    """Error estimate of element ``q`` over a step of size ``h`` (s), units of the state:
+    ``h sum_i E_i k_i`` over the three stages and the rates at the step's end ``k4``
+    (the kept solution minus the embedded one)."""
+    return h * (E[0] * k1[q] + E[1] * k2[q] + E[2] * k3[q] + E[3] * k4[q])
+
+
+@njit(cache=True, inline="always")
+def scaled_error(e, q, y, ynew, atol, rtol):
+    """The error ``e`` (units of the state) of element ``q`` on its scale
+    ``atol + rtol max(|y|, |ynew|)`` at the step's ends: 1 is at the tolerance."""
+    return abs(e) / (atol[q] + rtol[q] * max(abs(y[q]), abs(ynew[q])))
+
+
+@njit(cache=True, inline="always")
+def step_accepted(sp, err, h, h_try, hit):
+    """Count an accepted step of size ``h_try`` (s) with scaled error ``err`` (<= 1) in the
+    stepper record ``sp`` (fields ``accepted``, ``last_error``, ``last_rejected``) and
+    return the next step size, s. The PI controller's factor
+    ``SAFETY err^(-PI_ALPHA / q) last^(PI_BETA / q)`` (``q = ERROR_ORDER``) is kept within
+    ``[MIN_FACTOR, MAX_FACTOR]`` and does not grow the step right after a rejection. A
+    step shortened to land on a target (``hit``) says little about the next one: then
+    the step ``h`` (s) that was asked for is kept unless the factor shrinks it."""
+    sp["accepted"] += 1
+    if err == 0.0:
+        fac = MAX_FACTOR
+    else:
+        fac = SAFETY * err ** (-PI_ALPHA / ERROR_ORDER) \
+            * max(sp["last_error"], ERROR_FLOOR) ** (PI_BETA / ERROR_ORDER)
+        fac = min(MAX_FACTOR, max(MIN_FACTOR, fac))
+    if sp["last_rejected"]:
+        fac = min(fac, 1.0)
+    sp["last_error"] = err
+    sp["last_rejected"] = False
+    if not hit or fac < 1.0:
+        return h_try * fac
+    return max(h, h_try * fac)
+
+
+@njit(cache=True, inline="always")
+def step_rejected(sp, err, h_try):
+    """Count a rejected step of size ``h_try`` (s) with scaled error ``err`` (> 1, inf for
+    a state that is not finite) in the stepper record ``sp`` and return the step to try
+    next, s: ``SAFETY err^(-1 / q)`` of it, at least ``MIN_FACTOR`` of it."""
+    sp["rejected"] += 1
+    sp["last_rejected"] = True
+    if err == np.inf:
+        return h_try * MIN_FACTOR
+    return h_try * max(MIN_FACTOR, SAFETY * err ** (-1.0 / ERROR_ORDER))

@@ -1,0 +1,87 @@
+"""The adaptive kernel's treatment of hysteretic draft gears: the error of the force a gear
+exerts (rather than of its internal force, which may run ahead of the force by the
+gear's relaxation lag), and the exact relaxation of a gear's states over a step spent
+wholly in its slack, where they relax to constants and act on nothing.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from ltdsim.engine.couplers import P_D0, P_F0, P_RATE, P_SLACK, W_BACK, W_GAP
+from ltdsim.physics.gears.draftgear import plate_rate, relax
+
+
+@njit(cache=True, inline="always")
+def _exerted_error(f1, e, f, f0):
+    """Error estimate (N) of the force a hysteretic gear exerts, from the estimate ``e``
+    (N, the kept solution minus the embedded one) of its internal force ``f1`` (N) at the
+    step's end, where the gear exerts ``f`` (N, a magnitude); ``f0`` (N) its released
+    force.
+
+    The gear exerts ``f1`` clipped to its band between the unloading and the loading
+    curve. Above the loading curve (``f1 > f``) the internal force runs ahead of the
+    force by the gear's relaxation lag, and its error changes the force only as far as
+    the embedded solution ``f1 - e`` falls below the curve; below the unloading curve
+    likewise; locked in the band (``f1 == f``) the error is ``e`` itself. In the slack
+    (``f == 0``) the internal force relaxes to ``f0`` and sets the force the gear meets
+    the next load with, ``f1`` clipped to the band at closure, whose top is ``f0``
+    (the released gear's loading curve): what counts is the error of ``min(f1, f0)``."""
+    f_lo = f1 - e
+    if f > 0.0:
+        if f1 > f:
+            return max(f - f_lo, 0.0)
+        if f1 < f:
+            return max(f_lo - f, 0.0)
+        return abs(e)
+    return abs(min(f1, f0) - min(f_lo, f0))
+
+
+@njit(cache=True, inline="always")
+def _in_slack(d, slack):
+    """Is a coupling of free play ``slack`` (m) at deflection ``d`` (m) in its slack
+    (as :func:`ltdsim.physics.gears.couplers.gear_deflection` decides)?"""
+    return slack > 0.0 and abs(d) <= 0.5 * slack
+
+
+@njit(cache=True, inline="always")
+def _slack_throughout(j, y, ynew, K, ny, w10, w20, w21, cpl):
+    """Was coupler ``j`` in its slack at the start of a step of the three-stage pair
+    from ``y``, at its stages 2 and 3 (positions ``y + h sum A K``; ``w10 = h A[1, 0]``,
+    ``w20 = h A[2, 0]``, ``w21 = h A[2, 1]``, s) and at its end ``ynew``? (Positions
+    are the first states of ``y``, m; each stage position is summed as
+    :func:`_stages` sums it.)"""
+    slack = cpl[j, P_SLACK]
+    d0 = cpl[j, P_D0]
+    if not (_in_slack(y[j] - y[j + 1] + d0, slack)
+            and _in_slack(ynew[j] - ynew[j + 1] + d0, slack)):
+        return False
+    a = y[j] + w10 * K[j]
+    b = y[j + 1] + w10 * K[j + 1]
+    if not _in_slack(a - b + d0, slack):
+        return False
+    a = y[j] + w20 * K[j] + w21 * K[ny + j]
+    b = y[j + 1] + w20 * K[j + 1] + w21 * K[ny + j + 1]
+    return _in_slack(a - b + d0, slack)
+
+
+@njit(cache=True, inline="always")
+def _relax_in_slack(j, q, qp, y, ynew, dyend, decay, cpl):
+    """Relax the states of hysteretic gear ``j`` exactly over a step spent in its
+    slack, from ``y`` into ``ynew``, and their rates at the step's end into ``dyend``
+    (the first-same-as-last stage): its internal force (state ``q``, N) to the released
+    force, its plates (state ``qp``, m; -1 none) home, each at the gear's relaxation
+    rate (1/s), as :func:`ltdsim.engine.couplers.coupler_force` gives them in the slack
+    (the plates stop within 1e-12 m of home, as there). ``decay`` is ``exp(-rate h)``
+    for the step's size ``h`` (s)."""
+    rate = cpl[j, P_RATE]
+    f0 = cpl[j, P_F0]
+    ynew[q] = f0 + (y[q] - f0) * decay
+    dyend[q] = relax(ynew[q], f0, rate)
+    if qp >= 0:
+        p = y[qp]
+        if p > 1e-12:
+            p = max(p * decay, 1e-12)
+        ynew[qp] = p
+        dyend[qp] = plate_rate(-cpl[j, W_GAP], p, 0.0, cpl[j, W_BACK], rate) \
+            if p > 1e-12 else 0.0
