@@ -20,13 +20,21 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest
 
-## bench: benchmarks, tables to benchmarks/results/
+## bench: the maintained benchmarks, tables to benchmarks/results/ (the instruction
+## counts need valgrind and are skipped without it)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_kernel.py
 	$(BIN)/python benchmarks/bench_draftgear.py
 	$(BIN)/python benchmarks/bench_sweep.py
 	$(BIN)/python benchmarks/bench_study.py
 	$(BIN)/python benchmarks/bench_heavy_haul.py
+	$(BIN)/python benchmarks/bench_fluid_brake.py
+	$(BIN)/python benchmarks/bench_curving.py
+	$(BIN)/python benchmarks/bench_first_run.py
+	@if command -v valgrind >/dev/null; then \
+	  $(BIN)/python benchmarks/bench_kernel_instructions.py && \
+	  $(BIN)/python benchmarks/bench_reference_instructions.py; \
+	else echo "bench: valgrind not installed, instruction counts skipped"; fi
 
 clean:
 	rm -rf $(VENV) results .pytest_cache .hypothesis

@@ -68,7 +68,7 @@ def test_a_friction_gear_impact_converges_at_first_order_or_better_as_the_step_h
     # ode3 is third order on smooth problems; the gear's right-hand side has steps (its
     # release force at the slack edge, the plates' pick-up, the locked/sliding switch)
     # that a step without event location straddles, which costs an O(dt) error each:
-    # the bound is first order (benchmarks/study_dt_convergence.py measures 1-2).
+    # the bound is first order (docs/measurements.md: 1-2 measured).
     err = _impact_errors(quantity)
     assert np.all(err[1:] < err[:-1]), err  # every halving brings it closer
     assert err[-1] <= err[0] / 8.0, err  # 8x smaller step, at least 8x smaller error

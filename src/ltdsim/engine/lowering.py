@@ -44,7 +44,7 @@ GEAR_FORCE_SCALE = 1.0e7
 #: -> 1 mm/s). Their relative tolerance ``rtol |v|`` governs on the move; the absolute one
 #: matters only near standstill, where a tenfold tighter bound cut the steps by a third
 #: after the heavy-haul emergency stop without moving a coupler peak
-#: (benchmarks/try_step_ideas.py, docs/heavy-haul.md)
+#: (docs/heavy-haul.md, docs/measurements.md)
 SPEED_SCALE = 10.0
 #: Pa/m: pressure states (fluid brake) enter the bs23 error norm as pressure /
 #: PRESSURE_SCALE (atol 1e-6 -> 1 Pa, 1e-4 -> 1 mbar)
