@@ -4,7 +4,7 @@ The 214-vehicle distributed-power train braking through the S curve
 (scenarios/heavy-haul-s-curve.toml, 90 s, records every 0.25 s) is simulated without
 ``[curving]``; then, in the same process and in interleaved rounds (the order
 alternating), the run is timed by CPU time (``time.process_time``, which the machine's
-load moves less than wall time) and the curving pass (``ltdsim.results.curving.add_curving``) on
+load moves less than wall time) and the curving pass (``ltdsim.results.safety.add_curving``) on
 its records is timed the same way. Per round the ratio curving / run; the median of
 those ratios against the target of at most 20 %. The indicators are computed after the
 run from the recorded positions, speeds and coupler forces, so their cost scales with
@@ -27,7 +27,7 @@ from pathlib import Path
 from _results import publish
 
 import ltdsim
-from ltdsim.results.curving import add_curving
+from ltdsim.results.safety import add_curving
 
 HERE = Path(__file__).resolve().parent
 SCENARIO = HERE.parent / "scenarios" / "heavy-haul-s-curve.toml"

@@ -28,8 +28,8 @@ HERE = Path(__file__).resolve().parent
 STATIC_MASS = 66630.0        # kg, the study's locomotive
 MOTOR_INERTIA = 15.0         # kg m^2, rotor (placeholder until the motor preset sets it)
 M_AXLE = 884050.0 / 6        # kg, the study's train per driven axle
-WS = ws_row_of(Wheelset(), STATIC_MASS, motor_inertia=MOTOR_INERTIA)
-Q, R = WS[cr.W_Q], WS[cr.W_R]
+WS = ws_row_of(Wheelset(), STATIC_MASS, gravity=9.81, motor_inertia=MOTOR_INERTIA)
+Q, R = WS[cr.WS_Q], WS[cr.WS_R]
 NAMES = ("dry", "wet", "low-adhesion")
 RAILS = {n: rail_row(RailCondition(preset=n)) for n in NAMES}
 SPEEDS = (1.0, 10.0, 20.0, 30.0)   # m/s
@@ -37,7 +37,7 @@ SPEEDS = (1.0, 10.0, 20.0, 30.0)   # m/s
 
 def adhesion(rail, v, s):
     """Creep force of the wheelset over its load 2Q at creep s and speed v, -."""
-    w = s * max(v, WS[cr.W_VREG])
+    w = s * max(v, WS[cr.WS_VREG])
     return np.array([cr.creep_force((v + x) / R, v, WS, rail) for x in w]) / (2 * Q)
 
 
@@ -67,7 +67,7 @@ def curves():
     axes[0].set_ylabel("creep force / wheel load, -")
     axes[0].legend(title="speed (dot: peak)", fontsize=8)
     fig.suptitle("Polach creep-force curves, wheelset of the study's locomotive "
-                 f"(wheel load {Q / 1e3:.1f} kN, f11 {WS[cr.W_F11] / 1e6:.2f} MN)")
+                 f"(wheel load {Q / 1e3:.1f} kN, f11 {WS[cr.WS_F11] / 1e6:.2f} MN)")
     fig.tight_layout()
     fig.savefig(HERE / "creep_curves.png", dpi=110)
 
@@ -136,7 +136,7 @@ def setpoint_fit():
     the wet curve's peak over 0-30 m/s, and the force it holds against the peak."""
     rail = RAILS["wet"]
     vs = np.linspace(0.0, 30.0, 31)
-    wpk = np.array([peak(rail, v)[1] * max(v, WS[cr.W_VREG]) for v in vs])
+    wpk = np.array([peak(rail, v)[1] * max(v, WS[cr.WS_VREG]) for v in vs])
     slope, w0 = np.polyfit(vs, wpk, 1)
     sc = SlipControl()
     ratio = [cr.creep_force((v + sc.w_set + sc.w_slope * v) / R, v, WS, rail)
@@ -155,14 +155,14 @@ def regularisation():
     (kA + kS)/2 x 2 f11 r^2 / (J v_reg), 1/s, and ode3's step limit 2.51 / rate."""
     for name in NAMES:
         rail = RAILS[name]
-        rate = (rail[3] + rail[4]) / 2 * 2 * WS[cr.W_F11] * R**2 / (WS[cr.W_J] * WS[cr.W_VREG])
-        print(f"slip mode at v_reg {WS[cr.W_VREG]} m/s, {name}: {rate:.0f} 1/s, ode3 stable "
+        rate = (rail[3] + rail[4]) / 2 * 2 * WS[cr.WS_F11] * R**2 / (WS[cr.WS_J] * WS[cr.WS_VREG])
+        print(f"slip mode at v_reg {WS[cr.WS_VREG]} m/s, {name}: {rate:.0f} 1/s, ode3 stable "
               f"below a step of {2.51 / rate * 1e3:.3f} ms")
 
 
 if __name__ == "__main__":
-    print(f"wheel load {Q:.0f} N, f11 {WS[cr.W_F11]:.4g} N, inertia at the wheelset "
-          f"{WS[cr.W_J]:.1f} kg m^2, v_reg {WS[cr.W_VREG]} m/s")
+    print(f"wheel load {Q:.0f} N, f11 {WS[cr.WS_F11]:.4g} N, inertia at the wheelset "
+          f"{WS[cr.WS_J]:.1f} kg m^2, v_reg {WS[cr.WS_VREG]} m/s")
     regularisation()
     setpoint_fit()
     curves()

@@ -19,7 +19,7 @@ import numpy as np
 import xarray as xr
 
 import ltdsim
-from ltdsim.results.curving import curve_limit
+from ltdsim.results.safety import curve_limit
 from ltdsim.results.io import save_result
 from ltdsim.viz.plotting import WIDTH, _save, plt
 

@@ -14,7 +14,7 @@ from ltdsim.scenario.creep import Wheelset, rail_row
 from ltdsim.scenario.creep import RailCondition
 from ltdsim.physics.drive import creep as cr
 from ltdsim.physics.drive import foc
-from ltdsim.physics.drive.induction import M_LM, M_LR, M_LS, M_P, M_RR, M_RS, motor_row
+from ltdsim.physics.drive.induction import MP_LM, MP_LR, MP_LS, MP_P, MP_RR, MP_RS, motor_row
 from ltdsim.scenario import Scenario, load_scenario
 from ltdsim.results.simulate import simulate
 
@@ -82,7 +82,7 @@ def test_steady_force_current_and_power_at_a_held_speed(speed, demand):
                           motor_inertia=0.0, gear_ratio=ws.gear_ratio, v_reg=ws.v_reg)
     rail = rail_row(RailCondition(preset="dry"))
     per_wheel = demand / (2 * n_m)
-    creep = brentq(lambda x: _polach_wheel(x, v, row[cr.W_Q], row[cr.W_F11], *rail)
+    creep = brentq(lambda x: _polach_wheel(x, v, row[cr.WS_Q], row[cr.WS_F11], *rail)
                    - per_wheel, 1e-9, 0.01, xtol=1e-15)
     assert float(ds.creep[0]) == pytest.approx(creep, rel=1e-4)
     # the motor: torque, current, DC power in closed form
@@ -91,12 +91,12 @@ def test_steady_force_current_and_power_at_a_held_speed(speed, demand):
     wm = v * (1 + creep) / ws.wheel_radius * ws.gear_ratio
     assert float(ds.motor_speed[0]) == pytest.approx(wm, rel=1e-6)
     psi0 = foc.rated_flux(motor)
-    i_d = psi0 / m[M_LM]
-    i_q = torque * m[M_LR] / (1.5 * m[M_P] * m[M_LM] * psi0)
+    i_d = psi0 / m[MP_LM]
+    i_q = torque * m[MP_LR] / (1.5 * m[MP_P] * m[MP_LM] * psi0)
     i_rms = math.hypot(i_d, i_q) / math.sqrt(2) / math.sqrt(3)  # delta winding, rms
     assert float(ds.stator_current[0]) == pytest.approx(i_rms, rel=1e-4)
-    p_dc = n_m * (torque * wm + 1.5 * (m[M_RS] * (i_d ** 2 + i_q ** 2)
-                                       + m[M_RR] * (m[M_LM] / m[M_LR]) ** 2 * i_q ** 2))
+    p_dc = n_m * (torque * wm + 1.5 * (m[MP_RS] * (i_d ** 2 + i_q ** 2)
+                                       + m[MP_RR] * (m[MP_LM] / m[MP_LR]) ** 2 * i_q ** 2))
     assert float(ds.dc_power[0]) == pytest.approx(p_dc, rel=1e-4)
 
 
@@ -135,12 +135,12 @@ def _motor_energy_terms(ds, m):
     |i_r|^2)``, W; stored magnetic energy ``3/4 (psi_s . i_s + psi_r . i_r)``, J."""
     psd, psq, prd, prq = (ds[k].values[:, 0] for k in ("stator_flux_d", "stator_flux_q",
                                                          "rotor_flux_d", "rotor_flux_q"))
-    ls, lr, lm = m[M_LS], m[M_LR], m[M_LM]
+    ls, lr, lm = m[MP_LS], m[MP_LR], m[MP_LM]
     det = ls * lr - lm * lm
     isd, isq = (lr * psd - lm * prd) / det, (lr * psq - lm * prq) / det
     ird, irq = (ls * prd - lm * psd) / det, (ls * prq - lm * psq) / det
-    torque = 1.5 * m[M_P] * (psd * isq - psq * isd)
-    copper = 1.5 * (m[M_RS] * (isd ** 2 + isq ** 2) + m[M_RR] * (ird ** 2 + irq ** 2))
+    torque = 1.5 * m[MP_P] * (psd * isq - psq * isd)
+    copper = 1.5 * (m[MP_RS] * (isd ** 2 + isq ** 2) + m[MP_RR] * (ird ** 2 + irq ** 2))
     stored = 0.75 * (psd * isd + psq * isq + prd * ird + prq * irq)
     return torque, copper, stored
 
@@ -188,8 +188,8 @@ def test_dc_energy_is_shaft_work_copper_loss_and_stored_energy_in_the_train(case
         psi_r = np.hypot(ds.rotor_flux_d.values[:, 0], ds.rotor_flux_q.values[:, 0])
         psi0 = foc.rated_flux(motor)
         vfw = motor.voltage_margin * motor.dc_link_voltage / math.sqrt(3.0)
-        i_d = vfw / math.hypot(m[M_RS], m[M_P] * wm[0] * m[M_LS])
-        assert psi_r[0] == pytest.approx(m[M_LM] * i_d, rel=1e-9)
+        i_d = vfw / math.hypot(m[MP_RS], m[MP_P] * wm[0] * m[MP_LS])
+        assert psi_r[0] == pytest.approx(m[MP_LM] * i_d, rel=1e-9)
         assert psi_r[0] < 0.9 * psi0
         assert psi_r[-1] < 0.97 * psi_r[0]
 
@@ -227,7 +227,7 @@ def test_wet_start_holds_the_adhesion_peak_with_slip_control_and_not_without():
     sel = ds.time.values >= 3.0
     v = ds.velocity.values[sel, 0]
     f = ds.creep_force.values[sel, 0]
-    peak = np.array([12 * _peak(rail, vi, row[cr.W_Q], row[cr.W_F11]) for vi in v])
+    peak = np.array([12 * _peak(rail, vi, row[cr.WS_Q], row[cr.WS_F11]) for vi in v])
     assert (f <= peak * (1 + 1e-3)).all()
     assert f.mean() == pytest.approx(peak.mean(), rel=0.05)
     # the demand per axle is above the peak: the controller, not the demand, limits

@@ -18,11 +18,11 @@ from hypothesis import strategies as st
 from ltdsim.scenario.motor import load_motor
 from ltdsim.physics.drive import foc
 from ltdsim.physics.drive.induction import (
-    M_LM,
-    M_LR,
-    M_LS,
-    M_P,
-    M_RS,
+    MP_LM,
+    MP_LR,
+    MP_LS,
+    MP_P,
+    MP_RS,
     breakdown_torque,
     currents,
     equivalent_circuit,
@@ -48,8 +48,8 @@ def _limits(motor, m, c, wm):
     current limit at rated flux ``k_t i_d0 sqrt(I_max^2 - i_d0^2)`` and the power limit
     ``P / |w_m|``; and the breakdown torque at the planned voltage (scipy's maximum of
     the phasor circuit over the slip)."""
-    kt = 1.5 * m[M_P] * m[M_LM] ** 2 / m[M_LR]
-    id0 = foc.rated_flux(motor) / m[M_LM]
+    kt = 1.5 * m[MP_P] * m[MP_LM] ** 2 / m[MP_LR]
+    id0 = foc.rated_flux(motor) / m[MP_LM]
     t_cur = kt * id0 * math.sqrt(c[foc.C_IMAX] ** 2 - id0 ** 2)
     t_pow = motor.rated_power / abs(wm) if wm != 0.0 else math.inf
     vfw = motor.voltage_margin * motor.dc_link_voltage / math.sqrt(3.0)
@@ -65,7 +65,7 @@ def _state_report(motor, m, c, y, wm, t_ref):
     out = np.zeros(foc.N_OUT)
     te = foc.drive_rates(y, wm, t_ref, motor.dc_link_voltage, m, c, dy, out)
     scale = np.full(foc.N_DRIVE, motor.dc_link_voltage / math.sqrt(3.0))
-    scale[foc.S_ID] = scale[foc.S_IQ] = c[foc.C_KI] * c[foc.C_IMAX]
+    scale[foc.FOC_ID] = scale[foc.FOC_IQ] = c[foc.C_KI] * c[foc.C_IMAX]
     return te, out, float(np.max(np.abs(dy) / scale))
 
 
@@ -99,7 +99,7 @@ def test_the_initial_state_is_an_equilibrium_of_the_drive(speed, load):
     # the phasor circuit at the applied voltage, frequency and slip
     we = out[foc.O_WE]
     if abs(te) > 1.0 and we != 0.0:
-        ref = equivalent_circuit(m, v, abs(we), (we - m[M_P] * wm) / we)
+        ref = equivalent_circuit(m, v, abs(we), (we - m[MP_P] * wm) / we)
         # (a frame turning backwards is the mirror image: the torque's sign turns)
         assert ref["torque"] * math.copysign(1.0, we) == pytest.approx(te, rel=1e-6)
         assert ref["stator_current"] == pytest.approx(math.hypot(i_d, i_q), rel=1e-6)
@@ -121,10 +121,10 @@ def test_no_demand_holds_the_flux_the_voltage_allows(drive, speed):
     i_d, i_q, _, _ = currents(y, m)
     assert abs(i_q) < 1e-9
     vfw = motor.voltage_margin * motor.dc_link_voltage / math.sqrt(3.0)
-    id0 = foc.rated_flux(motor) / m[M_LM]
-    expected = min(id0, vfw / math.hypot(m[M_RS], m[M_P] * wm * m[M_LS]))
+    id0 = foc.rated_flux(motor) / m[MP_LM]
+    expected = min(id0, vfw / math.hypot(m[MP_RS], m[MP_P] * wm * m[MP_LS]))
     assert i_d == pytest.approx(expected, rel=1e-9)
-    assert y[foc.S_FLUX] == pytest.approx(m[M_LM] * expected, rel=1e-9)
+    assert y[foc.FOC_FLUX] == pytest.approx(m[MP_LM] * expected, rel=1e-9)
     if speed >= 20.0:
         assert expected < 0.9 * id0  # these are in field weakening
 
@@ -177,9 +177,9 @@ def test_a_start_at_speed_without_demand_has_no_transient(speed):
     assert np.abs(ds.motor_torque.values[:, 0]).max() < 1e-6
     assert np.abs(ds.creep_force.values[:, 0]).max() < 1e-3
     vfw = motor.voltage_margin * motor.dc_link_voltage / math.sqrt(3.0)
-    id0 = foc.rated_flux(motor) / m[M_LM]
+    id0 = foc.rated_flux(motor) / m[MP_LM]
     wm = ws.gear_ratio * speed / ws.wheel_radius
-    i_d = min(id0, vfw / math.hypot(m[M_RS], m[M_P] * wm * m[M_LS]))
+    i_d = min(id0, vfw / math.hypot(m[MP_RS], m[MP_P] * wm * m[MP_LS]))
     i_rms = i_d / math.sqrt(2.0) / math.sqrt(3.0)  # delta winding
     i = ds.stator_current.values[:, 0]
     assert np.allclose(i, i_rms, rtol=1e-6)

@@ -131,7 +131,7 @@ def emergency_pistons(d):
         assert status == kernel.OK
         s = y[z:z + nv * bv.N_CV].reshape(nv, bv.N_CV)
         times.append((r + 1) * d["solver"]["output_interval"])
-        pistons.append(s[:, bv.S_EM].copy())
+        pistons.append(s[:, bv.CV_EM].copy())
     return np.array(times), np.array(pistons)
 
 

@@ -395,7 +395,7 @@ def test_induction_drive_keys_land_in_their_rows():
     from ltdsim.scenario.creep import Wheelset
     from ltdsim.physics.drive import creep as cr
     from ltdsim.physics.drive import foc
-    from ltdsim.physics.drive.induction import M_LM, M_RS
+    from ltdsim.physics.drive.induction import MP_LM, MP_RS
 
     d = scenario_dict()
     d["traction"] = {**TRACTION, "drive": "induction",
@@ -413,26 +413,26 @@ def test_induction_drive_keys_land_in_their_rows():
     assert low.drive_of.tolist() == [0]
     z = int(low.drive_z[0])
     assert 0 <= z and z + 9 <= min(int(b) for b in low.veh[:, L.V_BZ] if b >= 0)
-    assert low.drive_motor[0, M_RS] == 0.0211
+    assert low.drive_motor[0, MP_RS] == 0.0211
     assert low.drive_ctrl[0, foc.C_IMAX] == pytest.approx(333.0 * math.sqrt(6), rel=1e-15)
-    assert low.drive_rail[0, cr.C_MU0] == 0.27 and low.drive_rail[0, cr.C_KA] == 0.30
+    assert low.drive_rail[0, cr.CR_MU0] == 0.27 and low.drive_rail[0, cr.CR_KA] == 0.30
     ws = low.drive_ws[0]
-    assert ws[cr.W_Q] == pytest.approx(1.27e5 * 9.81 / 10, rel=1e-15)  # static mass, 5 axles
-    assert ws[cr.W_R] == 0.55 and ws[cr.W_I] == 4.4 and ws[cr.W_VREG] == 0.8
-    assert ws[cr.W_J] == pytest.approx(210.0 + 4.4 ** 2 * 50.0, rel=1e-15)
+    assert ws[cr.WS_Q] == pytest.approx(1.27e5 * 9.81 / 10, rel=1e-15)  # static mass, 5 axles
+    assert ws[cr.WS_R] == 0.55 and ws[cr.WS_I] == 4.4 and ws[cr.WS_VREG] == 0.8
+    assert ws[cr.WS_J] == pytest.approx(210.0 + 4.4 ** 2 * 50.0, rel=1e-15)
     misc = low.drive_misc[0]
     assert misc[L.DM_MOTORS] == 4 and misc[L.DM_PER_LOCO] == 4  # one powered vehicle
     assert misc[L.DM_GEAR_EFF] == 0.96 and misc[L.DM_SLIP_ON] == 0.0
     assert misc[L.DM_VDC] == 2180.0 and misc[L.DM_FADE] == TRACTION["dynamic_brake_fade"]
     sp = low.drive_slip[0]
-    assert sp[cr.S_WSET] == 0.21 and sp[cr.S_WSLOPE] == 0.03
-    assert sp[cr.S_TRACK] == 15.0
-    assert sp[cr.S_GAIN] == pytest.approx(ws[cr.W_J] * 15.0 / 0.55, rel=1e-15)
+    assert sp[cr.SL_WSET] == 0.21 and sp[cr.SL_WSLOPE] == 0.03
+    assert sp[cr.SL_TRACK] == 15.0
+    assert sp[cr.SL_GAIN] == pytest.approx(ws[cr.WS_J] * 15.0 / 0.55, rel=1e-15)
     y0 = low.y0[z:z + 9]
-    assert y0[foc.S_FLUX] == pytest.approx(y0[2], rel=1e-15)  # rotor flux on d, at rated
-    assert y0[2] / low.drive_motor[0, M_LM] > 0.0
+    assert y0[foc.FOC_FLUX] == pytest.approx(y0[2], rel=1e-15)  # rotor flux on d, at rated
+    assert y0[2] / low.drive_motor[0, MP_LM] > 0.0
     assert y0[7] == pytest.approx(2.5 / 0.55, rel=1e-15)  # the wheel rolls with the train
-    assert y0[8] == pytest.approx(sp[cr.S_RECOV] * 3.0, rel=1e-12)  # the largest torque
+    assert y0[8] == pytest.approx(sp[cr.SL_RECOV] * 3.0, rel=1e-12)  # the largest torque
     assert Wheelset().axles == 6  # (the default the docs quote)
     # a consist's own drive wins over [traction]'s
     d["locomotives"] = [{"name": "lead", "vehicles": [0], "drive": "curve"}]

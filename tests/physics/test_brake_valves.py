@@ -33,9 +33,9 @@ from ltdsim.physics.air import brakevalves as bv
 
 BAR = 1e5
 PSI = 6894.757
-CYL = I_CV + bv.S_CYL
-AUX = I_CV + bv.S_AUX
-EM = I_CV + bv.S_EM
+CYL = I_CV + bv.CV_CYL
+AUX = I_CV + bv.CV_AUX
+EM = I_CV + bv.CV_EM
 REL, SRV, EMG, LAP = bv.H_RELEASE, bv.H_SERVICE, bv.H_EMERGENCY, bv.H_LAP
 
 # UIC application and release windows, s (UIC 540 / UIC 543): (apply 95 %, release to 0.4 bar)
@@ -95,7 +95,7 @@ def test_uic_full_service_gives_the_maximum(name):
     assert pc == pytest.approx(_cv(name, "max_cylinder"), abs=0.01 * BAR)
     assert _gauge(ys, I_PIPE)[-1] == pytest.approx(_dv(name, "regulated") - full, abs=0.01 * BAR)
     cv, _ = rows(name)
-    va, vc = cv[bv.P_VAUX], cv[bv.P_VCYL]
+    va, vc = cv[bv.CVP_VAUX], cv[bv.CVP_VCYL]
     # the cylinder's gain is at least the auxiliary reservoir's loss (first stage adds pipe air)
     lost = (ys[0, AUX] - ys[-1, AUX]) * va
     gained = (ys[-1, CYL] - ys[0, CYL]) * vc
@@ -116,12 +116,12 @@ def test_uic_graduated_release_steps_down():
     settled = [pc[np.searchsorted(ts, 30.0 * (i + 1))] for i in range(len(steps) + 1)]
     assert all(a > b + 0.3 * BAR for a, b in itertools.pairwise(settled))
     cv, _ = rows(name)
-    k = cv[bv.P_MAXCYL] / (cv[bv.P_FULLDROP] - cv[bv.P_THRESH])
+    k = cv[bv.CVP_MAXCYL] / (cv[bv.CVP_FULLDROP] - cv[bv.CVP_THRESH])
     for i, r in enumerate(steps[1:], start=1):
         t = ts.searchsorted(30.0 * (i + 1))
-        drop = ys[t, I_CV + bv.S_CTRL] - ys[t, I_PIPE]
+        drop = ys[t, I_CV + bv.CV_CTRL] - ys[t, I_PIPE]
         assert drop == pytest.approx(r, abs=0.02 * BAR)
-        assert settled[i] == pytest.approx(k * (drop - cv[bv.P_THRESH]), abs=0.03 * BAR)
+        assert settled[i] == pytest.approx(k * (drop - cv[bv.CVP_THRESH]), abs=0.03 * BAR)
     assert settled[-2] > 0.3 * BAR and settled[-1] < 0.05 * BAR
 
 
@@ -185,9 +185,9 @@ def test_aar_over_reduction_equalises_by_boyles_law():
     (2 s; before that the auxiliary reservoir feeds back into the falling pipe)."""
     cv, dv = rows("aar")
     cv = cv.copy()
-    cv[bv.P_QSCYL] = 0.0
+    cv[bv.CVP_QSCYL] = 0.0
     ts, ys = run((cv, dv), [(0, REL, 0), (1.0, SRV, 40.0 * PSI)], 90.0)
-    va, vc = cv[bv.P_VAUX], cv[bv.P_VCYL]
+    va, vc = cv[bv.CVP_VAUX], cv[bv.CVP_VCYL]
     i = ts.searchsorted(2.0)
     assert ys[i, CYL] - ATM < 0.5 * BAR
     p_eq = (va * ys[i, AUX] + vc * ys[i, CYL]) / (va + vc)
@@ -203,7 +203,7 @@ def test_emergency_trips_on_a_fast_drop_only(name):
     full = _dv(name, "full_reduction")
     ts, ys = run(name, [(0, REL, 0), (1.0, SRV, full)], 40.0)
     assert ys[:, EM].max() < 1e-3
-    margin = (ys[:, I_CV + bv.S_QA] - ys[:, I_PIPE]).max()
+    margin = (ys[:, I_CV + bv.CV_QA] - ys[:, I_PIPE]).max()
     assert margin < 0.6 * _cv(name, "trip")
     ts, ys = run(name, [(0, REL, 0), (1.0, EMG, 0), (60.0, REL, 0)], 240.0)
     t_trip = _first(ts, ys[:, EM] > 0.5)
@@ -226,7 +226,7 @@ def test_the_valve_vents_its_pipe_in_emergency():
     ts, ys = run((cv, dv), cmds, 30.0)
     assert _first(ts, ys[:, EM] > 0.5) < 1.3
     cv2 = cv.copy()
-    cv2[bv.P_VENT] = 0.0
+    cv2[bv.CVP_VENT] = 0.0
     _ts2, ys2 = run((cv2, dv), cmds, 30.0)
     i = ts.searchsorted(1.5)
     assert _gauge(ys, I_PIPE)[i] < _gauge(ys2, I_PIPE)[i] - 0.1 * BAR
@@ -242,16 +242,16 @@ def test_air_mass_is_conserved(name):
     compressor stays at its initial value to 1e-9 relative."""
     cv, dv = rows(name)
     dv = dv.copy()
-    dv[bv.Q_COMP] = 0.05
-    dv[bv.Q_CUTIN] = dv[bv.Q_MRINIT] - 1.0 * BAR
-    dv[bv.Q_CUTOUT] = dv[bv.Q_MRINIT]
-    dv[bv.Q_GOVBAND] = 0.1 * BAR
-    dv[bv.Q_TGOV] = 0.5
+    dv[bv.DVP_COMP] = 0.05
+    dv[bv.DVP_CUTIN] = dv[bv.DVP_MRINIT] - 1.0 * BAR
+    dv[bv.DVP_CUTOUT] = dv[bv.DVP_MRINIT]
+    dv[bv.DVP_GOVBAND] = 0.1 * BAR
+    dv[bv.DVP_TGOV] = 0.5
     y0 = charged(cv, dv)
     y0[I_PIPE] = ATM
     y0[I_CV:I_CV + bv.N_CV] = bv.control_valve_init(ATM, cv, ATM)
-    y0[I_DV + bv.D_ER] = ATM
-    full = dv[bv.Q_FULL]
+    y0[I_DV + bv.DV_ER] = ATM
+    full = dv[bv.DVP_FULL]
     cmds = [(0, REL, 0), (400.0, SRV, full), (460.0, REL, 0), (600.0, EMG, 0),
             (660.0, REL, 0)]
     ts, ys = run((cv, dv), cmds, 900.0, y0=y0, every=100)
@@ -260,7 +260,7 @@ def test_air_mass_is_conserved(name):
     assert ys[-1, I_EXH] > 0.1  # and air left
     assert np.max(np.abs(m - m[0])) / m[0] < 1e-9
     # the cycle did what it says: charged, applied, released
-    assert _gauge(ys, AUX)[ts.searchsorted(399.0)] == pytest.approx(dv[bv.Q_REG], abs=0.05 * BAR)
+    assert _gauge(ys, AUX)[ts.searchsorted(399.0)] == pytest.approx(dv[bv.DVP_REG], abs=0.05 * BAR)
     assert _gauge(ys, CYL)[ts.searchsorted(450.0)] > 3.0 * BAR
     assert _gauge(ys, CYL)[ts.searchsorted(650.0)] > 3.0 * BAR
     assert _gauge(ys, CYL)[-1] < 0.05 * BAR
@@ -278,11 +278,11 @@ def test_uic_sensitivity_and_insensitivity():
     about 1.2 s in; the cylinder follows within half a second more); a 0.3 bar drop in 60 s
     (a leak) does not."""
     ts, ss = _uic_on_pipe("uic-g", 0.1 * BAR, 0.6 * BAR, 10.0)
-    assert ss[-1, bv.S_CYL] - ATM > 0.3 * BAR
-    assert _first(ts, ss[:, bv.S_PISTON] > 0.0) < 1.4
-    assert _first(ts, ss[:, bv.S_CYL] - ATM > 0.05 * BAR) < 2.0
+    assert ss[-1, bv.CV_CYL] - ATM > 0.3 * BAR
+    assert _first(ts, ss[:, bv.CV_PISTON] > 0.0) < 1.4
+    assert _first(ts, ss[:, bv.CV_CYL] - ATM > 0.05 * BAR) < 2.0
     ts, ss = _uic_on_pipe("uic-g", 0.005 * BAR, 0.3 * BAR, 90.0)
-    assert (ss[:, bv.S_CYL] - ATM).max() < 0.05 * BAR
+    assert (ss[:, bv.CV_CYL] - ATM).max() < 0.05 * BAR
 
 
 @settings(deadline=None, max_examples=25)
@@ -296,11 +296,11 @@ def test_uic_cylinder_is_monotone_in_the_drop_and_capped(d1, d2):
     out = []
     for d in (d1, d2):
         _ts, ss = _uic_on_pipe("uic-p", 1.0 * BAR, d * BAR, 25.0, h=2e-3)
-        out.append(ss[-1, bv.S_CYL] - ATM)
+        out.append(ss[-1, bv.CV_CYL] - ATM)
     assert out[0] <= out[1] + 200.0
-    assert out[1] <= cv[bv.P_MAXCYL] + 200.0
+    assert out[1] <= cv[bv.CVP_MAXCYL] + 200.0
     if d2 >= 1.6:
-        assert out[1] == pytest.approx(cv[bv.P_MAXCYL], abs=0.01 * BAR)
+        assert out[1] == pytest.approx(cv[bv.CVP_MAXCYL], abs=0.01 * BAR)
 
 
 @pytest.mark.parametrize("name", ["uic-g", "uic-p", "aar"])
@@ -310,12 +310,12 @@ def test_max_rate_is_a_stable_step(name):
     spurious oscillation: settled pressures agree with a run at an 8 times finer step and
     the pipe pressure's total variation is no larger (an oscillating step would add to it)."""
     cv, dv = rows(name)
-    p_max = ATM + dv[bv.Q_MRINIT]
+    p_max = ATM + dv[bv.DVP_MRINIT]
     rate = max(bv.valve_max_rate(cv, "control", PIPE_VOLUME, p_max),
                bv.valve_max_rate(dv, "driver", PIPE_VOLUME, p_max))
     assert 20.0 < rate < 500.0  # time constants between 2 and 50 ms
     h = 2.0 / rate
-    cmds = [(0, REL, 0), (1.0, SRV, dv[bv.Q_FULL]), (30.0, REL, 0), (90.0, EMG, 0),
+    cmds = [(0, REL, 0), (1.0, SRV, dv[bv.DVP_FULL]), (30.0, REL, 0), (90.0, EMG, 0),
             (120.0, REL, 0)]
     ts1, ys1 = run(name, cmds, 200.0, h=h / 8, every=8)
     ts2, ys2 = run(name, cmds, 200.0, h=h, every=1)

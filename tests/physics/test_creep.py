@@ -26,8 +26,8 @@ from ltdsim.scenario.creep import wheelset_row as ws_row_of
 from ltdsim.physics.drive import creep as cr
 
 STUDY_STATIC_MASS = 66630.0  # kg, the study's locomotive (Appendix I: m_stc - 9 x 90 t)
-WS = ws_row_of(Wheelset(), STUDY_STATIC_MASS, motor_inertia=15.0)
-Q, F11, R, J = WS[cr.W_Q], WS[cr.W_F11], WS[cr.W_R], WS[cr.W_J]
+WS = ws_row_of(Wheelset(), STUDY_STATIC_MASS, gravity=9.81, motor_inertia=15.0)
+Q, F11, R, J = WS[cr.WS_Q], WS[cr.WS_F11], WS[cr.WS_R], WS[cr.WS_J]
 RAILS = {name: rail_row(RailCondition(preset=name)) for name in ("dry", "wet", "low-adhesion")}
 
 
@@ -225,7 +225,7 @@ def test_force_rises_monotonically_up_to_the_peak(v, name):
 def test_regularisation_leaves_the_force_alone_above_v_reg(v, w, name):
     """Closed form: above v_reg the wheelset's creep force is twice the per-wheel law at
     the unregularised creep w / |v|; below it, at w / v_reg."""
-    p, vreg = RAILS[name], WS[cr.W_VREG]
+    p, vreg = RAILS[name], WS[cr.WS_VREG]
     omega = (v + w) / R
     f = cr.creep_force(omega, v, WS, p)
     wr = omega * R - v
@@ -242,7 +242,7 @@ def test_standstill_keeps_the_adhesion_peak(name):
     """At standstill the regularised curve peaks within 1 % of the peak at v_reg (the
     force limit a start relies on is kept; only the creep at which it is reached
     changes)."""
-    p, vreg = RAILS[name], WS[cr.W_VREG]
+    p, vreg = RAILS[name], WS[cr.WS_VREG]
     w = np.geomspace(1e-5, 10.0, 6000)
     still = max(cr.creep_force(x / R, 0.0, WS, p) for x in w)
     at_vreg = 2 * _peak(p, vreg)[0]
@@ -278,7 +278,7 @@ def _run(rail, demand, control, t_end=20.0):
 
 
 def _peak_ws(rail, v):
-    return 2 * _peak(rail, max(v, WS[cr.W_VREG]))[0]
+    return 2 * _peak(rail, max(v, WS[cr.WS_VREG]))[0]
 
 
 def test_wet_rail_without_control_the_wheel_runs_away():
@@ -358,8 +358,8 @@ def test_axle_load_from_the_static_mass():
     """Axle load = static mass x g / axles, half on each wheel."""
     ws = Wheelset(axles=4)
     row = ws_row_of(ws, 80000.0, gravity=9.81, motor_inertia=10.0)
-    assert row[cr.W_Q] == pytest.approx(80000.0 * 9.81 / 8)
-    assert row[cr.W_J] == pytest.approx(ws.inertia + ws.gear_ratio**2 * 10.0)
+    assert row[cr.WS_Q] == pytest.approx(80000.0 * 9.81 / 8)
+    assert row[cr.WS_J] == pytest.approx(ws.inertia + ws.gear_ratio**2 * 10.0)
 
 
 def _ode3_coasting(v_reg, h=1e-4, t_end=0.3):
@@ -370,7 +370,8 @@ def _ode3_coasting(v_reg, h=1e-4, t_end=0.3):
     from ltdsim.engine.integrators import get_tableau
 
     tab = get_tableau("ode3")
-    ws = ws_row_of(Wheelset(v_reg=v_reg), STUDY_STATIC_MASS, motor_inertia=15.0)
+    ws = ws_row_of(Wheelset(v_reg=v_reg), STUDY_STATIC_MASS, gravity=9.81,
+                    motor_inertia=15.0)
     rail = RAILS["dry"]
     torque = 0.02 * 0.5 * 2 * Q * R
 
@@ -424,7 +425,7 @@ def test_slip_control_law(limit, demand, w, v):
         assert (torque, rate) == (demand, 0.0)
         return
     assert 0.0 <= torque <= demand
-    w_ref = SP[cr.S_WSET] + SP[cr.S_WSLOPE] * v
+    w_ref = SP[cr.SL_WSET] + SP[cr.SL_WSLOPE] * v
     slipping = (om * R - v) > w_ref
     if not slipping and limit >= demand:
         assert torque == demand
@@ -434,7 +435,7 @@ def test_slip_control_law(limit, demand, w, v):
         assert rate >= 0.0
     if limit >= demand:
         assert rate <= 0.0
-    assert rate <= SP[cr.S_RECOV]
+    assert rate <= SP[cr.SL_RECOV]
 
 
 def test_limit_left_above_a_lower_demand_follows_it_down():
@@ -448,7 +449,7 @@ def test_limit_left_above_a_lower_demand_follows_it_down():
 
     def run(tracking):
         sp = slip_row(SlipControl(), WS, 3 * peak_t)
-        sp[cr.S_TRACK] = tracking
+        sp[cr.SL_TRACK] = tracking
 
         def rhs(t, y):
             om, v, lim = y

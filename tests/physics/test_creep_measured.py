@@ -159,7 +159,7 @@ def test_hertz_ellipse_is_contacts():
 def test_preset_friction_is_contacts_input():
     """The preset's mu0, A, B reproduce CONTACT's falling-friction input for this case
     (mu = FKIN + FEXP1 exp(-ln2 w / SABSH1)) to the digits CONTACT's input gives."""
-    mu0, a, b = EUROSPRINTER[cr.C_MU0], EUROSPRINTER[cr.C_A], EUROSPRINTER[cr.C_B]
+    mu0, a, b = EUROSPRINTER[cr.CR_MU0], EUROSPRINTER[cr.CR_A], EUROSPRINTER[cr.CR_B]
     fr = DATA["contact"]["falling_friction_inputs"]
     assert a * mu0 == pytest.approx(fr["fkin"], abs=5e-5)
     assert (1.0 - a) * mu0 == pytest.approx(fr["fexp1"], abs=5e-5)
@@ -196,7 +196,7 @@ def test_measurements_identify_polachs_dry_factors():
     data, within a tenth of kS's value."""
     def residual(k):
         row = EUROSPRINTER.copy()
-        row[cr.C_KA], row[cr.C_KS] = k
+        row[cr.CR_KA], row[cr.CR_KS] = k
         return ltdsim_law(row)(X) - Y
     fit = least_squares(residual, x0=[0.5, 0.2], bounds=([0.01, 0.01], [1.0, 1.0]))
     k_a, k_s = fit.x
@@ -209,7 +209,7 @@ def _linear_kalker(xi_percent):
 
 def _without_falling_friction():
     row = EUROSPRINTER.copy()
-    row[cr.C_A] = 1.0
+    row[cr.CR_A] = 1.0
     return ltdsim_law(row)
 
 

@@ -325,8 +325,8 @@ def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
     and above the band, in draft and buff, with the plates anywhere (the plates on the
     unloading curve only while the spring seat carries them)."""
     from ltdsim.engine.couplers import (
-        P_KSOLID, P_TRAVEL, W_BACK, W_C1, W_C2, W_C3, W_G, W_GAP, W_H1, W_H2, W_H3, W_KM,
-        W_KR, W_S, W_TA, W_TB, W_TG, W_XM0, W_XR0, coupler_force, lower_coupler,
+        P_KSOLID, P_TRAVEL, WG_BACK, WG_C1, WG_C2, WG_C3, WG_G, WG_GAP, WG_H1, WG_H2, WG_H3, WG_KM,
+        WG_KR, WG_S, WG_TA, WG_TB, WG_TG, WG_XM0, WG_XR0, coupler_force, lower_coupler,
     )
     from ltdsim.physics.gears.couplers import solid_closure
     from ltdsim.physics.gears.draftgear import plates_carried, plates_out, wedge_curves
@@ -335,12 +335,12 @@ def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
     tables = []
     low = lower_coupler(c, tables)
     r = low.row
-    delta = r[W_BACK]
+    delta = r[WG_BACK]
     engaged = plates_out(p, max(delta, 1e-3))
-    carried = engaged if plates_carried(x - r[W_GAP], p, delta) else 0.0
-    f_l, f_u, _, _ = wedge_curves(x, v, (r[W_TA], r[W_TB], r[W_TG], r[W_G], r[W_C1],
-                                          r[W_C2], r[W_C3]), (r[W_H1], r[W_H2], r[W_H3]),
-                                  r[W_S], (r[W_KM], r[W_XM0], r[W_KR], r[W_XR0]), engaged,
+    carried = engaged if plates_carried(x - r[WG_GAP], p, delta) else 0.0
+    f_l, f_u, _, _ = wedge_curves(x, v, (r[WG_TA], r[WG_TB], r[WG_TG], r[WG_G], r[WG_C1],
+                                          r[WG_C2], r[WG_C3]), (r[WG_H1], r[WG_H2], r[WG_H3]),
+                                  r[WG_S], (r[WG_KM], r[WG_XM0], r[WG_KR], r[WG_XR0]), engaged,
                                   carried)
     solid = solid_closure(x, r[P_TRAVEL], r[P_KSOLID])
     f_l += solid

@@ -21,10 +21,10 @@ from ltdsim.data import preset_names
 from ltdsim.scenario.motor import Motor, load_motor
 from ltdsim.physics.drive import foc
 from ltdsim.physics.drive.induction import (
-    M_LM,
-    M_LR,
-    M_P,
-    M_RR,
+    MP_LM,
+    MP_LR,
+    MP_P,
+    MP_RR,
     N_MOTOR,
     breakdown_torque,
     copper_loss,
@@ -219,7 +219,7 @@ def test_field_weakening_law_against_the_circuit(speed, load):
     motor = load_motor(PRESET)
     m = motor_row(motor)
     c = foc.controller_row(motor)
-    p, lm, lr, rr = m[M_P], m[M_LM], m[M_LR], m[M_RR]
+    p, lm, lr, rr = m[MP_P], m[MP_LM], m[MP_LR], m[MP_RR]
     kt = 1.5 * p * lm * lm / lr
     vfw = motor.voltage_margin * motor.dc_link_voltage / math.sqrt(3.0)
     wm = speed * motor.base_speed * RPM

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from ltdsim.engine.rig import MODE_DEFLECTION, MODE_FORCE, _Run, run_rig
+from ltdsim.engine.rig import RIG_DEFLECTION, RIG_FORCE, _Run, run_rig
 from ltdsim.scenario import CouplerParams, Scenario
 
 
@@ -54,7 +54,7 @@ def drive_deflection(params: CouplerParams, t, d, *, dt: float = 1e-4, method: s
     t = np.asarray(t, dtype=float)
     d = np.asarray(d, dtype=float)
     rate = np.gradient(d, t)
-    run = run_rig(params, MODE_DEFLECTION, t, d, rate, 1.0, t[-1] - t[0], dt, method)
+    run = run_rig(params, RIG_DEFLECTION, t, d, rate, 1.0, t[-1] - t[0], dt, method)
     return _dataset(run, rig="prescribed deflection", model=params.model)
 
 
@@ -66,7 +66,7 @@ def drive_force(params: CouplerParams, t, force, *, mass: float, dt: float = 1e-
     rate and force over time.
     """
     t = np.asarray(t, dtype=float)
-    run = run_rig(params, MODE_FORCE, t, np.asarray(force, dtype=float), t * 0.0, mass,
+    run = run_rig(params, RIG_FORCE, t, np.asarray(force, dtype=float), t * 0.0, mass,
                    t[-1] - t[0], dt, method)
     return _dataset(run, rig="mass on a gear, force driven", model=params.model, mass_kg=mass)
 

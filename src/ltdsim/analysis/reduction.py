@@ -26,7 +26,7 @@ import numpy as np
 from scipy.optimize import differential_evolution
 
 from ltdsim.analysis.gears import STUDY_SINES, sine_chain
-from ltdsim.engine.rig import MODE_FORCE, _lowered_gear, integrate_rig
+from ltdsim.engine.rig import RIG_FORCE, _lowered_gear, integrate_rig
 from ltdsim.analysis.identify import fit_percent
 from ltdsim.physics.gears.couplers import coupler_simplified
 from ltdsim.scenario import CouplerParams, SimplifiedCoupler
@@ -106,7 +106,7 @@ class RigObjective:
             slack=self.slack, fade=self.fade,
             **dict(zip(PARAMETERS, (float(v) for v in values))))
         model, cpl, ctab = _lowered_gear(c)
-        return integrate_rig(model, cpl, ctab, MODE_FORCE, self.t, self.force_in,
+        return integrate_rig(model, cpl, ctab, RIG_FORCE, self.t, self.force_in,
                              self.force_in, self.mass, self.t[-1] - self.t[0], self.dt,
                              self.method).force
 

@@ -804,7 +804,7 @@ def curve_limit_cmd(
     wheelset share come from the scenario's curving table (its defaults without one)."""
     import math
 
-    from ltdsim.results.curving import curve_limit
+    from ltdsim.results.safety import curve_limit
     from ltdsim.physics.curving import cant_deficiency
     from ltdsim.scenario import Curving, load_scenario
 

@@ -6,9 +6,11 @@ A coupler model is four things:
    ``model``; its fields are the scenario keys, each with its unit);
 2. its entry here (:class:`CouplerModel` in :data:`MODELS`): name, integer code, its own
    columns of the coupler table, how a validated coupler lowers into them (and into the
-   table store), the kinds of its internal states, its released force (the initial
-   internal force), its linearised stiffness for modal analysis and its stiffest
-   tangent for the step-stability check; plus its branch in :func:`coupler_force`
+   table store), the kinds of its internal states, whether it is a hysteretic gear
+   (internal force first), its released force (the initial internal force), its
+   linearised stiffness for modal analysis, its stiffest tangent for the step-stability
+   check, its force at rest on the way back (stored energy) and, for a law of the
+   deflection and its rate alone, its tangent; plus its branch in :func:`coupler_force`
    (same file);
 3. its force law in :mod:`ltdsim.physics`;
 4. optionally preset data (``ltdsim/data/gears/*.toml``).
@@ -32,7 +34,7 @@ from typing import Callable
 import numpy as np
 from numba import njit
 
-from ltdsim.engine.layout import layout
+from ltdsim.engine.layout import append_table, layout
 from ltdsim.physics.gears.couplers import gear_deflection, linear_force, simplified_force
 from ltdsim.physics.gears.draftgear import (
     gear_force,
@@ -83,8 +85,8 @@ WEDGE_COLUMNS = HYSTERETIC_COLUMNS + (
     "tan_alpha", "tan_beta", "tan_gamma", "G", "c1", "c2", "c3", "h1", "h2", "h3", "S",
     "S_table", "S_n_velocity", "S_n_deflection", "k_m", "x_m0", "k_r", "x_r0",
     "plate_gap", "plate_backlash")
-(_, W_TA, W_TB, W_TG, W_G, W_C1, W_C2, W_C3, W_H1, W_H2, W_H3, W_S, W_STAB, W_SNV, W_SNX,
- W_KM, W_XM0, W_KR, W_XR0, W_GAP, W_BACK) = layout(*WEDGE_COLUMNS, start=N_COMMON)
+(_, WG_TA, WG_TB, WG_TG, WG_G, WG_C1, WG_C2, WG_C3, WG_H1, WG_H2, WG_H3, WG_S, WG_STAB, WG_SNV, WG_SNX,
+ WG_KM, WG_XM0, WG_KR, WG_XR0, WG_GAP, WG_BACK) = layout(*WEDGE_COLUMNS, start=N_COMMON)
 
 #: table: offsets and lengths of the loading and unloading curves in the table store
 TABLE_COLUMNS = HYSTERETIC_COLUMNS + ("loading", "loading_len", "unloading",
@@ -125,7 +127,7 @@ def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
     rate = cpl[j, P_RATE]
     f1 = y[zo]
     wedge = model == M_WEDGE
-    s_table = wedge and cpl[j, W_STAB] >= 0.0
+    s_table = wedge and cpl[j, WG_STAB] >= 0.0
     if in_slack:
         # no force. The gear extends fully and its wedges come free, so it meets the next
         # load on its loading curve (F1 relaxes to the released force f_l(0)); the plates
@@ -135,7 +137,7 @@ def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
         dy[dzo] = relax(f1, cpl[j, P_F0], rate)
         if wedge:
             p = y[zo + 1]
-            dy[dzo + 1] = plate_rate(-cpl[j, W_GAP], p, 0.0, cpl[j, W_BACK], rate) \
+            dy[dzo + 1] = plate_rate(-cpl[j, WG_GAP], p, 0.0, cpl[j, WG_BACK], rate) \
                 if p > 1e-12 else 0.0
         if s_table:
             dy[dzo + 2] = relax(y[zo + 2], abs(dd), rate)
@@ -143,21 +145,21 @@ def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
     v = sgn * dd  # > 0 while the gear closes
     if wedge:
         p = y[zo + 1]
-        gap = cpl[j, W_GAP]
-        delta = cpl[j, W_BACK]
-        off = int(cpl[j, W_STAB])
+        gap = cpl[j, WG_GAP]
+        delta = cpl[j, WG_BACK]
+        off = int(cpl[j, WG_STAB])
         if off >= 0:
-            s_factor = s_table_lookup(ctab, off, int(cpl[j, W_SNV]), int(cpl[j, W_SNX]),
+            s_factor = s_table_lookup(ctab, off, int(cpl[j, WG_SNV]), int(cpl[j, WG_SNX]),
                                       y[zo + 2], x)
         else:
-            s_factor = cpl[j, W_S]
+            s_factor = cpl[j, WG_S]
         u = x - gap
         ramp = max(delta, 1e-3)  # plate friction fades in and out over this travel, m
         engaged = plates_out(p, ramp)
         f_l, f_u, s_l, s_u = wedge_curves(
-            x, v, (cpl[j, W_TA], cpl[j, W_TB], cpl[j, W_TG], cpl[j, W_G], cpl[j, W_C1],
-                   cpl[j, W_C2], cpl[j, W_C3]), (cpl[j, W_H1], cpl[j, W_H2], cpl[j, W_H3]),
-            s_factor, (cpl[j, W_KM], cpl[j, W_XM0], cpl[j, W_KR], cpl[j, W_XR0]), engaged,
+            x, v, (cpl[j, WG_TA], cpl[j, WG_TB], cpl[j, WG_TG], cpl[j, WG_G], cpl[j, WG_C1],
+                   cpl[j, WG_C2], cpl[j, WG_C3]), (cpl[j, WG_H1], cpl[j, WG_H2], cpl[j, WG_H3]),
+            s_factor, (cpl[j, WG_KM], cpl[j, WG_XM0], cpl[j, WG_KR], cpl[j, WG_XR0]), engaged,
             engaged if plates_carried(u, p, delta) else 0.0)
     elif model == M_TABLE:
         f_l, s_l = table_curve(ctab, int(cpl[j, TAB_LOAD]), int(cpl[j, TAB_NLOAD]), x)
@@ -172,7 +174,7 @@ def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
                         cpl[j, HYS_KLOCK], rate)
     dy[dzo] = df1
     if wedge:
-        dy[dzo + 1] = plate_rate(x - cpl[j, W_GAP], y[zo + 1], v, cpl[j, W_BACK], rate)
+        dy[dzo + 1] = plate_rate(x - cpl[j, WG_GAP], y[zo + 1], v, cpl[j, WG_BACK], rate)
     if s_table:
         dy[dzo + 2] = 0.0
     return sgn * f
@@ -207,13 +209,6 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
 
 
 # ------------------------------------------------------------------ registry
-def _append(tables: list[float], values) -> int:
-    """Append values to the flat table store and return their offset."""
-    off = len(tables)
-    tables.extend(float(v) for v in values)
-    return off
-
-
 @dataclass(frozen=True)
 class CouplerModel:
     """One coupler model's entry in the registry (see the module text).
@@ -239,6 +234,18 @@ class CouplerModel:
     stiffness: Callable[[object, str], float | None] = lambda c, branch: None
     #: the most internal states any coupler of this model has
     max_states: int = 0
+    #: a hysteretic gear: its first state is the internal force F1 of a band between a
+    #: loading and an unloading curve (:func:`_gear`), whose error the adaptive kernel
+    #: takes through the force the gear exerts
+    hysteretic: bool = False
+    #: ``at_rest(c, x, branch)``: one gear's force at rest on the way back (N) at its
+    #: deflections ``x`` (m, magnitudes, an array) on ``branch``: what it gives back
+    #: unloading slowly (:func:`stored_energy`)
+    at_rest: Callable[[object, np.ndarray, str], np.ndarray] | None = None
+    #: ``tangent(c, e)``: one gear's tangent stiffness at rest at its deflection ``e``
+    #: (m beyond the slack, + draft), N/m, for a model whose force is a function of the
+    #: deflection and its rate alone; None otherwise (:func:`operating_stiffness`)
+    tangent: Callable[[object, float], float] | None = None
 
     @property
     def code(self) -> int:
@@ -272,7 +279,7 @@ def _lower_wedge(c, tables) -> dict:
                plate_backlash=c.plate_backlash, S_table=-1.0)
     if c.S_table is not None:
         t = c.S_table
-        out["S_table"] = _append(tables, [*t.velocity, *t.deflection,
+        out["S_table"] = append_table(tables, [*t.velocity, *t.deflection,
                                           *np.asarray(t.values, dtype=float).ravel()])
         out["S_n_velocity"], out["S_n_deflection"] = len(t.velocity), len(t.deflection)
     else:
@@ -284,7 +291,7 @@ def _lower_table(c, tables) -> dict:
     out = {"k_locked": c.k_locked}
     for pts, name in ((c.loading, "loading"), (c.unloading, "unloading")):
         arr = np.asarray(pts, dtype=float)
-        out[name] = _append(tables, [*arr[:, 0], *arr[:, 1]])
+        out[name] = append_table(tables, [*arr[:, 0], *arr[:, 1]])
         out[name + "_len"] = len(arr)
     # a table gear closes solid at its last point unless told otherwise
     last = max(c.loading[-1][0], c.unloading[-1][0])
@@ -363,29 +370,72 @@ def _polymer_stiffest(c) -> float:
     return c.k_locked + (1.0 + c.gain_loading) * s + c.solid_stiffness
 
 
+def _simplified_tangent(c, e: float) -> float:
+    """Tangent of a simplified gear at rest at gear deflection ``e`` (m, + draft, beyond
+    the slack), N/m: buff k1; draft ``k3 + k2 exp(-e/v_c) (1 - e/v_c)`` when k2 fades with
+    the deflection, ``k3 + k2`` when it fades with the rate (at rest it has not faded)."""
+    if e < 0.0:
+        return c.k1
+    if c.fade == "rate":
+        return c.k3 + c.k2
+    z = e / c.v_c
+    return c.k3 + c.k2 * np.exp(-z) * (1.0 - z)
+
+
+def _simplified_at_rest(c, x, branch):
+    if branch == "buff":
+        return c.preload + c.k1 * x
+    k2 = c.k2 * (np.exp(-x / c.v_c) if c.fade == "deflection" else 1.0)
+    return c.preload + (c.k3 + k2) * x
+
+
+def _wedge_unloading(c, x, branch):
+    from ltdsim.physics.gears.draftgear import wedge_gear_quasistatic
+
+    s = c.S if c.S is not None else c.S_table.values[0][0]
+    return wedge_gear_quasistatic(x, 0.0, np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]),
+                                  (c.h1, c.h2, c.h3), s, (c.k_m, c.x_m0, c.k_r, c.x_r0),
+                                  c.plate_gap, c.plate_backlash, -1.0)
+
+
+def _polymer_unloading(c, x, branch):
+    from ltdsim.physics.gears.polymer import polymer_static
+
+    f = np.array([polymer_static(xi, c.preload, c.initial_stiffness, c.force_at_travel,
+                                 c.travel, c.exponent)[0] for xi in np.atleast_1d(x)])
+    return c.return_ratio * f
+
+
 #: the registry, in code order (:data:`MODEL_NAMES`)
 MODELS: tuple[CouplerModel, ...] = (
     CouplerModel("linear", LINEAR_COLUMNS, _lower_linear,
                  stiffest=lambda c: c.stiffness + _solid(c),
-                 stiffness=lambda c, branch: c.stiffness),
+                 stiffness=lambda c, branch: c.stiffness,
+                 at_rest=lambda c, x, branch: c.stiffness * x,
+                 tangent=lambda c, e: c.stiffness),
     # simplified: buff k1; draft the tangent at rest and at zero deflection, k2 + k3 (either
     # fade: exp(-e/v_c) and exp(-|de/dt|/v_c) are both 1 there), the study's "high" (§5.2)
     CouplerModel("simplified", SIMPLIFIED_COLUMNS, _lower_simplified,
                  stiffest=lambda c: max(c.k1, c.k2 + c.k3) + _solid(c),
-                 stiffness=lambda c, branch: c.k1 if branch == "buff" else c.k2 + c.k3),
+                 stiffness=lambda c, branch: c.k1 if branch == "buff" else c.k2 + c.k3,
+                 at_rest=_simplified_at_rest, tangent=_simplified_tangent),
     CouplerModel("friction_wedge", WEDGE_COLUMNS, _lower_wedge, _wedge_stiffest,
-                 states=_wedge_states, released=_wedge_released, max_states=3),
+                 states=_wedge_states, released=_wedge_released, max_states=3,
+                 hysteretic=True, at_rest=_wedge_unloading),
     # (a table gear closes solid at its last point when it states no travel)
     CouplerModel("table", TABLE_COLUMNS, _lower_table,
                  lambda c: c.k_locked + max(_curve_slope(c.loading),
                                             _curve_slope(c.unloading)) + c.solid_stiffness,
                  states=lambda c: ("force",), released=lambda c: float(c.loading[0][1]),
-                 max_states=1),
+                 max_states=1, hysteretic=True,
+                 at_rest=lambda c, x, branch: np.interp(
+                     x, *np.asarray(c.unloading, dtype=float).T)),
     # polymer: one internal state (its force); released at its preload; linearised at
     # the static loading slope at rest ("low") or at impact speeds ("high")
     CouplerModel("polymer", POLYMER_COLUMNS, _lower_polymer, states=lambda c: ("force",),
                  released=lambda c: float(c.preload),
-                 stiffness=_polymer_stiffness, stiffest=_polymer_stiffest, max_states=1),
+                 stiffness=_polymer_stiffness, stiffest=_polymer_stiffest, max_states=1,
+                 hysteretic=True, at_rest=_polymer_unloading),
 )
 REGISTRY: dict[str, CouplerModel] = {m.name: m for m in MODELS}
 assert tuple(REGISTRY) == MODEL_NAMES, "MODELS must follow MODEL_NAMES (their codes)"
@@ -401,8 +451,9 @@ class LoweredCoupler:
 
     code: int  #: model code
     row: np.ndarray  #: (N_CCOL,) its row of the coupler table
-    states: tuple[str, ...]  #: kinds of its internal states ("force", "x", "v")
-    y0: tuple[float, ...]  #: their initial values (N, m, m/s)
+    states: tuple[str, ...]  #: kinds of its internal states ("force", "x", "v", ...)
+    y0: tuple[float, ...]  #: their initial values (N, m, m/s, ...)
+    hysteretic: bool  #: a hysteretic gear, its internal force F1 first (CouplerModel)
 
 
 def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
@@ -433,7 +484,7 @@ def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
         y0 = (row[P_F0],) + (0.0,) * (len(states) - 1)
     for name, value in entry.lower(c, tables).items():
         row[entry.column(name)] = value
-    return LoweredCoupler(entry.code, row, states, y0)
+    return LoweredCoupler(entry.code, row, states, y0, entry.hysteretic)
 
 
 def released_force(c) -> float:
@@ -458,24 +509,6 @@ def linearised_stiffness(c, branch: str = "draft") -> float | None:
     return None if k is None else k / c.gears
 
 
-def _simplified_tangent(c, e: float) -> float:
-    """Tangent of a simplified gear at rest at gear deflection ``e`` (m, + draft, beyond
-    the slack), N/m: buff k1; draft ``k3 + k2 exp(-e/v_c) (1 - e/v_c)`` when k2 fades with
-    the deflection, ``k3 + k2`` when it fades with the rate (at rest it has not faded)."""
-    if e < 0.0:
-        return c.k1
-    if c.fade == "rate":
-        return c.k3 + c.k2
-    z = e / c.v_c
-    return c.k3 + c.k2 * np.exp(-z) * (1.0 - z)
-
-
-#: tangent stiffness of one gear at rest at a gear deflection (m, + draft, beyond the
-#: slack), N/m, for the models whose force is a function of the deflection and its rate
-#: alone (a hysteretic gear's depends on its history: not here)
-_TANGENTS = {"linear": lambda c, e: c.stiffness, "simplified": _simplified_tangent}
-
-
 def operating_stiffness(c, d: float) -> float | None:
     """Tangent stiffness of coupling ``c`` at rest at the coupling deflection ``d`` (m from
     neutral, + draft, its slack included), N/m: 0 inside the slack; beyond it one gear's
@@ -483,7 +516,7 @@ def operating_stiffness(c, d: float) -> float | None:
     gear's stiffness past the travel. None for a hysteretic gear (its small-amplitude
     stiffness depends on where in its band it is). The small oscillations of a train
     about a steady state ring at the modes of these stiffnesses (:mod:`ltdsim.analysis.modal`)."""
-    tangent = _TANGENTS.get(c.model)
+    tangent = REGISTRY[c.model].tangent
     if tangent is None:
         return None
     h = 0.5 * c.slack
@@ -494,41 +527,6 @@ def operating_stiffness(c, d: float) -> float | None:
     if c.travel is not None and abs(e) > c.travel:
         k += c.solid_stiffness
     return k / c.gears
-
-
-def _simplified_at_rest(c, x, branch):
-    if branch == "buff":
-        return c.preload + c.k1 * x
-    k2 = c.k2 * (np.exp(-x / c.v_c) if c.fade == "deflection" else 1.0)
-    return c.preload + (c.k3 + k2) * x
-
-
-def _wedge_unloading(c, x, branch):
-    from ltdsim.physics.gears.draftgear import wedge_gear_quasistatic
-
-    s = c.S if c.S is not None else c.S_table.values[0][0]
-    return wedge_gear_quasistatic(x, 0.0, np.radians([c.alpha_deg, c.beta_deg, c.gamma_deg]),
-                                  (c.h1, c.h2, c.h3), s, (c.k_m, c.x_m0, c.k_r, c.x_r0),
-                                  c.plate_gap, c.plate_backlash, -1.0)
-
-
-def _polymer_unloading(c, x, branch):
-    from ltdsim.physics.gears.polymer import polymer_static
-
-    f = np.array([polymer_static(xi, c.preload, c.initial_stiffness, c.force_at_travel,
-                                 c.travel, c.exponent)[0] for xi in np.atleast_1d(x)])
-    return c.return_ratio * f
-
-
-#: each model's force at rest on the way back (N) at one gear's deflection ``x`` (m,
-#: magnitudes, an array) on a branch: the force it would give back unloading slowly
-_UNLOADING = {
-    "linear": lambda c, x, branch: c.stiffness * x,
-    "simplified": _simplified_at_rest,
-    "friction_wedge": _wedge_unloading,
-    "table": lambda c, x, branch: np.interp(x, *np.asarray(c.unloading, dtype=float).T),
-    "polymer": _polymer_unloading,
-}
 
 
 def stored_energy(c, d: float, points: int = 201) -> float:
@@ -544,7 +542,7 @@ def stored_energy(c, d: float, points: int = 201) -> float:
     x = (abs(d) - h) / c.gears
     branch = "draft" if d > 0.0 else "buff"
     xs = np.linspace(0.0, x, points)
-    f = np.asarray(_UNLOADING[c.model](c, xs, branch), dtype=float)
+    f = np.asarray(REGISTRY[c.model].at_rest(c, xs, branch), dtype=float)
     energy = float(np.trapezoid(f, xs))
     if c.travel is not None and x > c.travel:
         energy += 0.5 * c.solid_stiffness * (x - c.travel) ** 2
@@ -559,11 +557,13 @@ def stiffest(c) -> float:
 
 def _check_registry() -> None:
     for m in MODELS:
-        if m.columns[:len(HYSTERETIC_COLUMNS)] != HYSTERETIC_COLUMNS and m.max_states:
+        if m.hysteretic and m.columns[:len(HYSTERETIC_COLUMNS)] != HYSTERETIC_COLUMNS:
             raise AssertionError(f"hysteretic model {m.name} must start with "
                                  f"{HYSTERETIC_COLUMNS}")
         if set(m.columns) & set(COMMON_COLUMNS):
             raise AssertionError(f"{m.name}: own columns repeat common ones")
+        if m.at_rest is None:
+            raise AssertionError(f"{m.name}: no force at rest (at_rest: stored_energy)")
 
 
 _check_registry()

@@ -33,6 +33,14 @@ def layout(*names: str, start: int = 0) -> range:
     return range(start, start + len(names))
 
 
+def append_table(tables: list[float], values) -> int:
+    """Append ``values`` to the flat table store ``tables`` (the kernel's
+    ``Train.tables``: curves, friction tables, schedules) and return their offset."""
+    off = len(tables)
+    tables.extend(float(v) for v in values)
+    return off
+
+
 #: vehicle table: mass kg, weight mass kg, Davis a N, b N s/m, c N s^2/m^2, inverse
 #: standstill speed 1/v0 s/m (resistance.PURE_SIGN for v0 = 0), share of its consist's
 #: traction -, initial position m, consist index (0 with share 0 when unpowered); brake:

@@ -15,15 +15,16 @@ import numpy as np
 from ltdsim.engine.couplers import N_CCOL, P_D0, lower_coupler
 from ltdsim.engine.integrators import BS23, Tableau, get_tableau
 from ltdsim.engine.layout import (
-    N_DRIVE_MISC,
-    CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
-    D_BMODEL, I_CELLS, I_CV, I_DV, I_EXH, I_NCP, I_PIPE, N_AIR, N_AIR_INDEX, V_BAREA, V_BCELL,
-    V_BCV, V_BGAIN, V_BINVSHOES, V_BPFS, V_BSPRING,
-    D_AW, D_BCTRL, D_BFULLSUM, D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP,
-    D_BTAUA, D_BTAUR, D_BVS, D_FILT, D_MODE, K_DBFADE, K_FMAX, K_MADH, K_NLEN, K_NOFF,
-    K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH, K_Z, MODE_FORCE, MODE_NOTCH, MODE_SPEED, N_DRV,
-    N_ENERGY, N_KCOL, N_VCOL, T_REF, V_BDELAY, V_BFRIC, V_BFULL, V_BMU, V_BNTAB, V_BSHOE, V_BTAB, V_BZ,
-    V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_MASS, V_P0, V_SHARE, V_WMASS,
+    A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
+    CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, D_AW, D_BCTRL, D_BFULLSUM, D_BMODEL,
+    D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
+    D_FILT, D_MODE, I_CELLS, I_CV, I_DV, I_EXH, I_NCP, I_PIPE, K_DBFADE, K_FMAX, K_MADH,
+    K_NLEN, K_NOFF, K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH, K_Z, MODE_FORCE, MODE_NOTCH,
+    MODE_SPEED, N_AIR, N_AIR_INDEX, N_DRIVE_MISC, N_DRV, N_ENERGY, N_KCOL, N_TRAC, N_VCOL,
+    T_AMAX, T_DMAX, T_EZ, T_FF, T_FMAX, T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_BAREA,
+    V_BCELL, V_BCV, V_BDELAY, V_BFRIC, V_BFULL, V_BGAIN, V_BINVSHOES, V_BMU, V_BNTAB,
+    V_BPFS, V_BSHOE, V_BSPRING, V_BTAB, V_BZ, V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_MASS,
+    V_P0, V_SHARE, V_WMASS, append_table,
 )
 from ltdsim.physics.air.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
@@ -190,7 +191,7 @@ def lower(s: Scenario) -> Lowered:
         one = lower_coupler(s.coupler(i), tables, sign0=sign0, state_offset=nz)
         cpl_model[i] = one.code
         cpl[i] = one.row
-        if one.states:  # a hysteretic gear: its internal force F1 comes first
+        if one.hysteretic:  # its internal force F1 comes first
             gear_f1.append(2 * n + nz)
             gear_of.append(i)
             exact = one.states in (("force",), ("force", "x"))  # (no impact speed)
@@ -238,7 +239,7 @@ def lower(s: Scenario) -> Lowered:
             veh[i, V_SHARE] = 1.0 / len(loco.vehicles)
         if loco.notch_profile is not None:  # (never the lead: checked on load)
             prof = np.asarray(loco.notch_profile, dtype=float)
-            row[K_NOFF] = _append(tables, [*prof[:, 0], *prof[:, 1]])
+            row[K_NOFF] = append_table(tables, [*prof[:, 0], *prof[:, 1]])
             row[K_NLEN] = len(prof)
     followers = cons[:, K_NLEN] == 0
     cons[followers, K_SHARE] = cons[followers, K_FMAX] / cons[followers, K_FMAX].sum()
@@ -267,9 +268,11 @@ def lower(s: Scenario) -> Lowered:
     if d.mode == "speed" and d.pid.acceleration_of == "locomotive":
         m_demand = float(veh[consists[0].vehicles, V_MASS].sum())
     ratio = m_total / m_demand  # (exactly 1 for the train)
-    trac = np.array([cons[0, K_FMAX], cons[0, K_PMAX], cons[0, K_MADH],
-                     t.max_accel * ratio, t.max_decel * ratio,
-                     1.0 if t.feedforward else 0.0, m_demand, g, float(ref), float(ez)])
+    trac = np.zeros(N_TRAC)
+    trac[T_FMAX], trac[T_PMAX], trac[T_MADH] = cons[0, K_FMAX], cons[0, K_PMAX], cons[0, K_MADH]
+    trac[T_AMAX], trac[T_DMAX] = t.max_accel * ratio, t.max_decel * ratio
+    trac[T_FF] = 1.0 if t.feedforward else 0.0
+    trac[T_MTOT], trac[T_G], trac[T_REF], trac[T_EZ] = m_demand, g, float(ref), float(ez)
 
     drv = np.zeros(N_DRV)
     if d.mode == "speed":
@@ -288,8 +291,7 @@ def lower(s: Scenario) -> Lowered:
     # air brakes
     b = s.brake
     fluid = b.model == "fluid"
-    control = [int(cons[0, K_VEH])] + [
-        int(cons[k, K_VEH]) for k, loco in enumerate(consists) if k > 0 and loco.brake_control]
+    control = _brake_control_vehicles(consists)
     control_points = [p0[i] for i in control]
     air = _fluid_rows(s, lengths, control) if fluid else None
     shoe_forces = []
@@ -326,7 +328,7 @@ def lower(s: Scenario) -> Lowered:
         if vb.friction_table is not None:
             tab = np.asarray(vb.friction_table, dtype=float)
             veh[i, V_BFRIC] = FRICTION_TABLE
-            veh[i, V_BTAB] = _append(tables, [*tab[:, 0], *tab[:, 1]])
+            veh[i, V_BTAB] = append_table(tables, [*tab[:, 0], *tab[:, 1]])
             veh[i, V_BNTAB] = len(tab)
         elif vb.friction == "karwatzki":
             veh[i, V_BFRIC] = FRICTION_KARWATZKI
@@ -347,7 +349,7 @@ def lower(s: Scenario) -> Lowered:
         rows = brake_schedule(s, key, air["dv_row"] if air is not None else None)
         if rows:
             arr = np.asarray(rows, dtype=float)  # (m, N_EVENT_COLUMNS)
-            drv[col_off] = _append(tables, arr.T.ravel())  # each column in turn
+            drv[col_off] = append_table(tables, arr.T.ravel())  # each column in turn
             drv[col_len] = len(arr)
     drv[D_BCTRL] = 1.0 if d.brake_controller else 0.0
     drv[D_BSTEP] = b.level_step
@@ -495,7 +497,7 @@ def _initial_torque_demand(dem: float, v0: float, om0: float, limit: float,
     fade = t.dynamic_brake_fade
     if dem < 0.0 and fade > 0.0:
         dem *= min(max(v0 / fade, 0.0), 1.0)
-    r = wrow[_creep.W_R]
+    r = wrow[_creep.WS_R]
     tw = dem * r / n_motors
     if t.creep.slip_control.enabled:
         if tw >= 0.0:
@@ -503,7 +505,7 @@ def _initial_torque_demand(dem: float, v0: float, om0: float, limit: float,
         else:
             tw, _ = _creep.slip_control(limit, -tw, -om0, -v0, r, slip)
             tw = -tw
-    g, eta = wrow[_creep.W_I], t.creep.wheelset.gear_efficiency
+    g, eta = wrow[_creep.WS_I], t.creep.wheelset.gear_efficiency
     return tw / (g * eta) if tw >= 0.0 else tw * eta / g
 
 
@@ -594,10 +596,14 @@ def lower_fluid_parts(s: Scenario) -> dict:
     pressure (``p_main``, Pa abs) of scenario ``s`` (``brake.model = "fluid"``), without
     lowering the rest (the step check's input)."""
     lengths = np.array([v.length for v in s.vehicles])
-    consists = s.consists()
-    control = [consists[0].vehicles[0]] + [
+    return _fluid_rows(s, lengths, _brake_control_vehicles(s.consists()))
+
+
+def _brake_control_vehicles(consists) -> list[int]:
+    """Vehicle indices of the brake-control points: the lead consist's first vehicle and
+    that of every other consist with ``brake_control`` (the remotes)."""
+    return [consists[0].vehicles[0]] + [
         loco.vehicles[0] for k, loco in enumerate(consists) if k > 0 and loco.brake_control]
-    return _fluid_rows(s, lengths, control)
 
 
 def _valve_kind(x0: float) -> str:
@@ -722,13 +728,6 @@ def rounded_profile(points, step: float = 0.02) -> tuple[np.ndarray, np.ndarray]
     t_out, v_out = np.array(out_t), np.array(out_v)
     keep = np.concatenate([[True], np.diff(t_out) > 1e-12])  # touching rounded corners
     return t_out[keep], v_out[keep]
-
-
-def _append(tables: list[float], values) -> int:
-    """Append values to the flat table store and return their offset."""
-    off = len(tables)
-    tables.extend(float(v) for v in values)
-    return off
 
 
 def merge_track(gradient, curve) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -28,13 +28,13 @@ from ltdsim.engine.couplers import (
 from ltdsim.engine.integrators import get_tableau
 from ltdsim.engine.kernel import CouplerArrays, FixedStep, _advance, _interp, _stages
 
-MODE_DEFLECTION, MODE_FORCE = 0, 1
+RIG_DEFLECTION, RIG_FORCE = 0, 1
 #: the rig's state ``y``: deflection m (+ draft), its rate m/s, then the gear's states
 #: from ``Y_GEAR`` on (as in a train, :mod:`ltdsim.engine.kernel`)
 Y_D, Y_V, Y_GEAR = 0, 1, 2
 #: search cursors of the drive's lookups (:class:`RigWork` ``hints``): deflection,
 #: deflection rate, force
-H_D, H_V, H_F = 0, 1, 2
+HINT_D, HINT_V, HINT_F = 0, 1, 2
 
 
 class Rig(NamedTuple):
@@ -42,7 +42,7 @@ class Rig(NamedTuple):
 
     couplers: CouplerArrays  # the coupler, as coupler 0 of a train (kernel.CouplerArrays)
     tables: np.ndarray  # the table store its parameters point into (kernel.Train.tables)
-    mode: int  # MODE_DEFLECTION or MODE_FORCE
+    mode: int  # RIG_DEFLECTION or RIG_FORCE
     mass: float  # driven mass, kg (force mode)
     t: np.ndarray  # times of the drive's samples, s
     a: np.ndarray  # deflection d(t), m (deflection mode), or force F(t), N (force mode)
@@ -78,19 +78,19 @@ def _rig_rhs(t, y, dy, p):
     # the coupler's index typed int64, not as the literal 0 (a type of its own): the rig
     # then uses the gear function the train kernels compiled (coupler_models._gear)
     j = np.int64(0)
-    if rig.mode == MODE_DEFLECTION:
-        d = _interp(rig.t, rig.a, t, hints, H_D)
-        dd = _interp(rig.t, rig.b, t, hints, H_V)
+    if rig.mode == RIG_DEFLECTION:
+        d = _interp(rig.t, rig.a, t, hints, HINT_D)
+        dd = _interp(rig.t, rig.b, t, hints, HINT_V)
     else:
         d = y[Y_D]
         dd = y[Y_V]
     f = coupler_force(j, cp.model[j], d, dd, y, Y_GEAR, dy, Y_GEAR, cp.par, rig.tables)
-    if rig.mode == MODE_DEFLECTION:
+    if rig.mode == RIG_DEFLECTION:
         dy[Y_D] = 0.0
         dy[Y_V] = 0.0
     else:
         dy[Y_D] = dd
-        dy[Y_V] = (_interp(rig.t, rig.a, t, hints, H_F) - f) / rig.mass
+        dy[Y_V] = (_interp(rig.t, rig.a, t, hints, HINT_F) - f) / rig.mass
     return d, dd, f
 
 

@@ -15,6 +15,7 @@ from ltdsim.engine.integrators import get_tableau
 from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, N_EVENT_COLUMNS
 from ltdsim.engine.lowering import MAX_EVENTS, N_DRIVE_STATES, Lowered
 from ltdsim.errors import ScenarioError, SimulationError
+from ltdsim.physics.air.brakevalves import N_CV, N_DV
 from ltdsim.scenario import Scenario
 from ltdsim.variables import RECORD_ARRAYS
 
@@ -68,7 +69,7 @@ def recording_bytes(scenario: Scenario) -> int:
         # the pipe's cells and faces, every valve's states, the pipe's work array
         per_sample += n * (("bp" in keep) + ("ar" in keep) + ("bc" in keep)) + ("ax" in keep)
         cells = n * scenario.brake.fluid.cells_per_vehicle
-        ny += 2 * cells + braked * kernel.N_CV + nk * kernel.N_DV + 1
+        ny += 2 * cells + braked * N_CV + nk * N_DV + 1
     stages = 4 if sv.adaptive else get_tableau(sv.method).stages
     air_steps = sv.adaptive and scenario.brake.model == "fluid"
     ny += nd * N_DRIVE_STATES

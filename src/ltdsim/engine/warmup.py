@@ -84,14 +84,14 @@ def gear_rig_kernel() -> KernelCall:
     its argument types do not depend on the gear (the coupler model is a number)."""
     import numpy as np
 
-    from ltdsim.engine.rig import MODE_DEFLECTION, _lowered_gear, _rig, rig_args
+    from ltdsim.engine.rig import RIG_DEFLECTION, _lowered_gear, _rig, rig_args
     from ltdsim.scenario import CouplerParams
 
     any_gear = CouplerParams(model="simplified", slack=0.0, damping=1.0, k1=1.0, k2=1.0,
                              k3=1.0, v_c=1.0)
     model, cpl, ctab = _lowered_gear(any_gear)
     t = np.array([0.0, 1e-4])
-    return KernelCall("gear rig", _rig, rig_args(model, cpl, ctab, MODE_DEFLECTION, t, t * 0.0,
+    return KernelCall("gear rig", _rig, rig_args(model, cpl, ctab, RIG_DEFLECTION, t, t * 0.0,
                                                  t * 0.0, 1.0, 0.0, 1e-4, "ode3"))
 
 

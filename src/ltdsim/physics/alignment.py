@@ -4,7 +4,7 @@ position integrated along it, and the alignment of a scenario's ``[track]``.
 
 Plain numpy. The curve resistance of the kernel reads the alignment's curvature averaged
 in steps (:meth:`Alignment.step_table`), the curving indicators after a run
-(:mod:`ltdsim.results.curving`) its geometry. Lengths m, curvature 1/m (+ turning left),
+(:mod:`ltdsim.results.safety`) its geometry. Lengths m, curvature 1/m (+ turning left),
 cant m (the outer rail's height over the inner), angles rad.
 """
 

@@ -2,7 +2,7 @@
 of a vehicle body loaded by its couplers.
 
 These laws are evaluated after a run on the recorded positions, speeds and coupler forces
-(:mod:`ltdsim.results.curving`), not inside the compiled kernel: they are plain numpy functions
+(:mod:`ltdsim.results.safety`), not inside the compiled kernel: they are plain numpy functions
 that broadcast over arrays. All quantities are SI (m, s, kg, N, rad).
 
 Lateral sign convention inside this module: ``+`` to the left of the direction of travel;

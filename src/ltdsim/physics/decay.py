@@ -77,25 +77,23 @@ def _series(z):
 
 
 @njit(cache=True, inline="always")
+def _square_thrice(p):
+    """``p`` squared three times, ``p^8``, one multiplication after the other."""
+    p *= p
+    p *= p
+    return p * p
+
+
+@njit(cache=True, inline="always")
 def _wide(z):
     """``exp(-z)`` for any ``z`` from the series at ``z / 8192`` squared 13 times, -."""
     if z != z:  # NaN stays NaN
         return z
     p = _series(min(max(z, -1000.0), 1000.0) * (1.0 / 8192.0))
     # (unrolled: a loop here, even in a branch rarely taken, slows the caller's loop)
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
-    p *= p
+    p = _square_thrice(_square_thrice(_square_thrice(_square_thrice(p))))
     return p * p
+
 
 
 @njit(cache=True, inline="always")

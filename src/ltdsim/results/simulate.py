@@ -105,15 +105,15 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
     if "f" in keep:
         data["coupler_force"] = (cdims, rec["f"])
     data.update({
-        "traction_force": ("time", s[:, kernel.S_TRACTION]),
-        "speed_reference": ("time", s[:, kernel.S_VREF]),
+        "traction_force": ("time", s[:, kernel.SG_TRACTION]),
+        "speed_reference": ("time", s[:, kernel.SG_VREF]),
     })
     if "v" in keep:
-        data["speed_error"] = ("time", s[:, kernel.S_VREF] - vel[:, ref])
+        data["speed_error"] = ("time", s[:, kernel.SG_VREF] - vel[:, ref])
     data.update({
-        "adhesion_limit": ("time", s[:, kernel.S_ADHESION]),
-        "demanded_acceleration": ("time", s[:, kernel.S_ADEM]),
-        "traction_demand": ("time", s[:, kernel.S_DEMAND]),
+        "adhesion_limit": ("time", s[:, kernel.SG_ADHESION]),
+        "demanded_acceleration": ("time", s[:, kernel.SG_ADEM]),
+        "traction_demand": ("time", s[:, kernel.SG_DEMAND]),
     })
     coords = {
         "time": ("time", time),
@@ -130,7 +130,7 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
                       (kernel.PK_TMIN, "time_min_coupler_force")):
         data[name] = ("coupler", rec["peaks"][:, col] if nc else np.zeros(0))
     if low.braked:
-        data["brake_command"] = ("time", s[:, kernel.S_BRAKE])
+        data["brake_command"] = ("time", s[:, kernel.SG_BRAKE])
         for key, name in (("b", "brake_force"), ("p", "brake_cylinder")):
             if key in keep:
                 data[name] = (vdims, rec[key])
@@ -201,8 +201,8 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         # the pneumatic states' own steps (kernel.run_adaptive)
         ds.attrs["air_steps"] = rec["air_steps"][0]
         ds.attrs["air_rejected_steps"] = rec["air_steps"][1]
-    if scenario.curving is not None:  # after the run, from the records (ltdsim.results.curving)
-        from ltdsim.results.curving import add_curving
+    if scenario.curving is not None:  # after the run, from the records (ltdsim.results.safety)
+        from ltdsim.results.safety import add_curving
 
         ds = add_curving(ds, scenario)
     return ds

@@ -59,10 +59,6 @@ def valve_tables(fluid: "FluidBrake") -> tuple[dict, dict]:
     return cv, dv
 
 
-#: handle positions of ``driver.brake_commands``
-HANDLES = ("release", "minimum", "full", "emergency")
-
-
 class BrakeCommand(_Strict):
     """One brake command of the driver: when (time or lead position) and what (handle
     position or pipe reduction)."""

@@ -150,10 +150,11 @@ def rail_row(rail: RailCondition) -> np.ndarray:
     return _creep.creep_row(rail.model_dump())
 
 
-def wheelset_row(ws: Wheelset, static_mass: float, gravity: float = 9.81,
+def wheelset_row(ws: Wheelset, static_mass: float, gravity: float,
                  motor_inertia: float = 0.0) -> np.ndarray:
     """The :data:`ltdsim.physics.drive.creep.WHEELSET_PARAMS` row of one driven wheelset of a
-    locomotive of ``static_mass`` kg (``ws.adhesion_mass`` instead when given), with the
+    locomotive of ``static_mass`` kg (``ws.adhesion_mass`` instead when given) under
+    ``gravity`` (m/s^2, ``track.gravity``), with the
     motor rotor's inertia ``motor_inertia`` (kg m^2, at the motor shaft)."""
     if ws.adhesion_mass is not None:
         static_mass = ws.adhesion_mass
@@ -172,7 +173,7 @@ def slip_row(sc: SlipControl, ws_row: np.ndarray, max_wheel_torque: float) -> np
     ``gain omega_c / 4`` (N m/m) puts the PI zero a quarter of the bandwidth below it.
     The limit recovers at ``max_wheel_torque / recovery_time`` N m/s and, left above a
     lower demand, follows it down at the bandwidth (1/s)."""
-    j, r = ws_row[_creep.W_J], ws_row[_creep.W_R]
+    j, r = ws_row[_creep.WS_J], ws_row[_creep.WS_R]
     gain = j * sc.bandwidth / r
     return np.array([sc.w_set, sc.w_slope, gain, gain * sc.bandwidth / 4.0,
                      max_wheel_torque / sc.recovery_time, sc.bandwidth])

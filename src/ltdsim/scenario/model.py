@@ -209,7 +209,7 @@ class Scenario(_Strict):
                                  f"motors but traction.creep.wheelset.axles = {axles}: at "
                                  "most one motor per axle")
             for i in loco.vehicles:
-                if self.vehicles[i].weight_mass * 9.81 / (2 * axles) > 2.5e5:
+                if self.vehicles[i].weight_mass * self.track.gravity / (2 * axles) > 2.5e5:
                     raise ValueError(f"vehicles.{i}: a wheel load above 250 kN "
                                      f"(static mass over 2 x traction.creep.wheelset.axles)")
                 try:  # the contact ellipse must lie within Kalker's table

@@ -128,7 +128,7 @@ class Track(_Strict):
 
 
 class Curving(_Strict):
-    """Curving-safety indicators computed after the run (ltdsim.results.curving): coupler angles,
+    """Curving-safety indicators computed after the run (ltdsim.results.safety): coupler angles,
     lateral coupler forces, wheel L/V and wheelset lateral forces."""
 
     flange_angle: float = Field(75.0, gt=45.0, lt=89.0,

@@ -93,7 +93,7 @@ GEOMETRY_DEFAULTS = {
 
 
 class VehicleGeometry(_Strict):
-    """Plan and height geometry of a vehicle for the curving indicators (ltdsim.results.curving);
+    """Plan and height geometry of a vehicle for the curving indicators (ltdsim.results.safety);
     a key left out takes the wagon's or (powered vehicles) the locomotive's default."""
 
     bogie_spacing: float | None = Field(None, gt=0.0, le=MAX_LENGTH,

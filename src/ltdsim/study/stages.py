@@ -36,7 +36,6 @@ from ltdsim.results.io import (atomic_path, file_problem, file_record, read_seal
                        sealed_json)
 from ltdsim.scenario import CouplerParams, Scenario, load_scenario
 
-STAGES = ("reduction", "sweep", "base", "modal", "report")
 Progress = Callable[[str, str], None]
 #: the study's own settings: its base case and the reduction's generation limit (§3, §5)
 STUDY_CASE = "LHHL"

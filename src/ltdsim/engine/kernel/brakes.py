@@ -15,8 +15,7 @@ import numpy as np
 from numba import njit
 
 from ltdsim.engine.kernel.structs import (
-    AIR_F0, AIR_F1, AIR_FP, AIR_K2, AIR_K3, AIR_Y0, AIR_Y1, AIR_YP, AIR_YT, CV_CYL, DV_FULL,
-    N_CV, N_DV,
+    AIR_F0, AIR_F1, AIR_FP, AIR_K2, AIR_K3, AIR_Y0, AIR_Y1, AIR_YP, AIR_YT,
 )
 from ltdsim.engine.kernel.rk import (
     MIN_STEP, pair_error, pair_solution, scaled_error, step_accepted, step_rejected,
@@ -34,6 +33,7 @@ from ltdsim.physics.air.brakes import (
     FRICTION_CONSTANT, FRICTION_KARWATZKI, karwatzki_mu, retarding_force,
 )
 from ltdsim.physics.air.brakevalves import (
+    CV_CYL, DVP_FULL, N_CV, N_DV,
     H_EMERGENCY, H_RELEASE, H_SERVICE, control_valve, driver_valve, driver_valve_compressor,
 )
 
@@ -180,7 +180,7 @@ def _air_rates(t, y, events, n_events, tr, w, dy):
     for c in range(nc):
         inflow[c] = 0.0
     exhausted = 0.0
-    handle, reduction = fluid_command(t, events, n_events, air.dv[0, DV_FULL])
+    handle, reduction = fluid_command(t, events, n_events, air.dv[0, DVP_FULL])
     for c in range(idx[I_NCP]):
         o = zd + c * N_DV
         cell = air.dv_cell[c]

@@ -88,62 +88,33 @@ def _account_fixed(first, h, y, tr, w):
     (``w.fprev``) and is added here."""
     pw = w.pw
     e = w.energy
-    veh = tr.veh
-    n = veh.shape[0]
-    tres = w.tres
-    res = w.res
-    motor, dyn = _traction_powers(y, tr, w, w.fcons)
+    _powers(y, tr, w, PW_END)  # this state's powers, traction with its force now
     if not first:
         held_m, held_d = _traction_powers(y, tr, w, w.fprev)
         half = 0.5 * h
         e[E_MOTOR] += half * (pw[PW_START, E_MOTOR] + held_m)
         e[E_DYN] += half * (pw[PW_START, E_DYN] + held_d)
-    pw[PW_START, E_MOTOR] = motor
-    pw[PW_START, E_DYN] = dyn
+    pw[PW_START, E_MOTOR] = pw[PW_END, E_MOTOR]
+    pw[PW_START, E_DYN] = pw[PW_END, E_DYN]
     for c in range(w.fcons.shape[0]):
         w.fprev[c] = w.fcons[c]
-    # (branch-free loops over the vehicles and the couplers)
-    total = 0.0
-    grade = 0.0
-    curve = 0.0
-    for i in range(n):
-        v = y[n + i]
-        total += res[i] * v
-        grade += tres[i, 0] * v
-        curve += tres[i, 1] * abs(v)  # (curve_force's sign rule: it opposes the motion)
-    air = 0.0
-    if w.bforce_on[0]:
-        bforce = w.bforce
-        for i in range(n):
-            air += bforce[i] * y[n + i]
-    force = w.force
     if first:
-        pw[PW_START, E_AIR] = air
-        pw[PW_START, E_DAVIS] = total - grade - curve - air
-        pw[PW_START, E_GRADE] = grade
-        pw[PW_START, E_CURVE] = curve
-        for j in range(n - 1):
-            pw[PW_START, N_ENERGY + j] = force[j] * (y[n + j] - y[n + j + 1])
-        for q in range(E_AIR, pw.shape[1]):
-            pw[PW_SUM, q] = pw[PW_START, q]
+        for q in range(E_AIR, pw.shape[1]):  # (E_MOTOR, E_DYN first: layout.ENERGY_TERMS)
+            pw[PW_START, q] = pw[PW_END, q]
+            pw[PW_SUM, q] = pw[PW_END, q]
         return
-    pw[PW_SUM, E_AIR] += air
-    pw[PW_SUM, E_DAVIS] += total - grade - curve - air
-    pw[PW_SUM, E_GRADE] += grade
-    pw[PW_SUM, E_CURVE] += curve
-    for j in range(n - 1):
-        pw[PW_SUM, N_ENERGY + j] += force[j] * (y[n + j] - y[n + j + 1])
+    for q in range(E_AIR, pw.shape[1]):
+        pw[PW_SUM, q] += pw[PW_END, q]
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _energy_totals(h, y, tr, w):
-    """The energy totals of :func:`run` at the state ``y`` just accounted
-    (:func:`_account_fixed`) into ``w.energy`` (J): each continuous power's running sum
-    over the grid of step ``h`` (s) less half its first and its latest sample (this
-    state's, evaluated again here), times ``h`` (the trapezoids' sum); the traction
-    terms are summed step by step."""
+def _energy_totals(h, w):
+    """The energy totals of :func:`run` at the state just accounted
+    (:func:`_account_fixed`, which left its powers in ``w.pw[PW_END]``) into
+    ``w.energy`` (J): each continuous power's running sum over the grid of step ``h``
+    (s) less half its first and its latest sample, times ``h`` (the trapezoids' sum);
+    the traction terms are summed step by step."""
     pw = w.pw
-    _powers(y, tr, w, PW_END)
     for q in range(E_AIR, pw.shape[1]):  # (E_MOTOR, E_DYN first: layout.ENERGY_TERMS)
         w.energy[q] = h * (pw[PW_SUM, q] - 0.5 * (pw[PW_START, q] + pw[PW_END, q]))
 

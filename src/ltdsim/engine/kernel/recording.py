@@ -8,14 +8,15 @@ import numpy as np
 from numba import njit
 
 from ltdsim.engine.kernel.structs import (
-    CV_AUX, CV_CYL, PK_MAX, PK_MIN, PK_TMAX, PK_TMIN, S_ADEM, S_ADHESION, S_BRAKE, S_DEMAND,
-    S_TRACTION, S_VREF,
+    PK_MAX, PK_MIN, PK_TMAX, PK_TMIN, SG_ADEM, SG_ADHESION, SG_BRAKE, SG_DEMAND,
+    SG_TRACTION, SG_VREF,
 )
 from ltdsim.engine.kernel.tables import _interp
 from ltdsim.engine.layout import (
     A_ATM, I_EXH, I_PIPE, K_MADH, K_VEH, N_DRIVE_SIGNALS, T_EZ, T_G, V_BCELL, V_BPFS, V_BZ,
     V_MASS, V_P0,
 )
+from ltdsim.physics.air.brakevalves import CV_AUX, CV_CYL
 from ltdsim.physics.drive.traction import adhesion_max
 
 
@@ -100,16 +101,16 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
             kin += 0.5 * veh[i, V_MASS] * y[n + i] * y[n + i]
         out.e[r, ne - 1] = kin
     sig = w.sig[0]
-    out_s[r, S_TRACTION] = sig["traction"]
+    out_s[r, SG_TRACTION] = sig["traction"]
     adh = 0.0
     for c in range(cons.shape[0]):
         adh += adhesion_max(y[n + int(cons[c, K_VEH])], cons[c, K_MADH], trac[T_G])
-    out_s[r, S_ADHESION] = adh
-    out_s[r, S_DEMAND] = sig["demand"]
-    out_s[r, S_BRAKE] = level
+    out_s[r, SG_ADHESION] = adh
+    out_s[r, SG_DEMAND] = sig["demand"]
+    out_s[r, SG_BRAKE] = level
     if speed_mode:
-        out_s[r, S_VREF] = _interp(dr.prof_t, dr.prof_y, t, w.hints, n + 1)
-        out_s[r, S_ADEM] = a_dem
+        out_s[r, SG_VREF] = _interp(dr.prof_t, dr.prof_y, t, w.hints, n + 1)
+        out_s[r, SG_ADEM] = a_dem
     else:
-        out_s[r, S_VREF] = np.nan
-        out_s[r, S_ADEM] = np.nan
+        out_s[r, SG_VREF] = np.nan
+        out_s[r, SG_ADEM] = np.nan

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ltdsim.engine.couplers import P_D0, P_F0, P_RATE, P_SLACK, W_BACK, W_GAP
+from ltdsim.engine.couplers import P_D0, P_F0, P_RATE, P_SLACK, WG_BACK, WG_GAP
 from ltdsim.physics.gears.draftgear import plate_rate, relax
 
 
@@ -83,5 +83,5 @@ def _relax_in_slack(j, q, qp, y, ynew, dyend, decay, cpl):
         if p > 1e-12:
             p = max(p * decay, 1e-12)
         ynew[qp] = p
-        dyend[qp] = plate_rate(-cpl[j, W_GAP], p, 0.0, cpl[j, W_BACK], rate) \
+        dyend[qp] = plate_rate(-cpl[j, WG_GAP], p, 0.0, cpl[j, WG_BACK], rate) \
             if p > 1e-12 else 0.0

@@ -89,7 +89,7 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
             _account_fixed(k == 0, dt, y, tr, w)
         if c_rec == 0:
             if energy:
-                _energy_totals(dt, y, tr, w)
+                _energy_totals(dt, w)
             _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
                     out)
         _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
@@ -106,7 +106,7 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         _track_peaks(force, peaks, n - 1, t)
         if energy:
             _account_fixed(k_stop == 0, dt, y, tr, w)
-            _energy_totals(dt, y, tr, w)
+            _energy_totals(dt, w)
         _record(k_stop // record_every, t, y, K, st["a_dem"], st["level"], speed_mode, tr,
                 dr, w, out)
     return OK, k_stop

@@ -21,7 +21,6 @@ from typing import NamedTuple
 import numpy as np
 
 from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, V_MASS, V_SHARE
-from ltdsim.physics.air.brakevalves import CV_STATES, DV_PARAMS, DV_STATES
 from ltdsim.physics.control import PID_STATE
 from ltdsim.physics.drive.foc import N_OUT
 
@@ -29,7 +28,7 @@ from ltdsim.physics.drive.foc import N_OUT
 OK, NONFINITE, EVENTS_FULL = 0, 1, 2
 
 #: columns of the recorded scalar signals
-S_TRACTION, S_VREF, S_ADHESION, S_ADEM, S_DEMAND, S_BRAKE = range(6)
+SG_TRACTION, SG_VREF, SG_ADHESION, SG_ADEM, SG_DEMAND, SG_BRAKE = range(6)
 N_SCALARS = 6
 
 #: columns of the peak-force table, one row per coupler: largest force N, smallest
@@ -37,12 +36,6 @@ N_SCALARS = 6
 PK_MAX, PK_MIN, PK_TMAX, PK_TMIN = range(4)
 N_PEAKS = 4
 
-#: states of a control valve and of a driver's valve (:mod:`ltdsim.physics.air.brakevalves`)
-N_CV = len(CV_STATES)
-N_DV = len(DV_STATES)
-CV_AUX = CV_STATES.index("auxiliary")
-CV_CYL = CV_STATES.index("cylinder")
-DV_FULL = DV_PARAMS.index("full_reduction")
 
 #: signals of the last right-hand-side evaluation (one record, in :class:`Work`):
 #: total traction force N, traction demand before the traction-curve limits N, total

@@ -17,9 +17,9 @@ from ltdsim.engine.layout import (
     D_MODE, K_DBFADE, K_FMAX, K_MADH, K_NLEN, K_NOFF, K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH,
     K_Z, MODE_FORCE, MODE_NOTCH, MODE_SPEED, T_FF, T_G, T_MTOT,
 )
-from ltdsim.physics.drive.creep import W_I, W_R, W_VREG, slip_control, wheelset_rate
+from ltdsim.physics.drive.creep import WS_I, WS_R, WS_VREG, slip_control, wheelset_rate
 from ltdsim.physics.drive.foc import N_DRIVE, O_ID, O_IQ, O_PDC, drive_rates
-from ltdsim.physics.drive.induction import S_PRD, S_PRQ, S_PSD, S_PSQ
+from ltdsim.physics.drive.induction import IM_PRD, IM_PRQ, IM_PSD, IM_PSQ
 from ltdsim.physics.drive.traction import traction_max
 
 
@@ -108,8 +108,8 @@ def _drive_axle(y, dy, d, kd, vc, dem, out, sg):
     slip = d.slip[kd]
     misc = d.misc[kd]
     zw = z + N_DRIVE
-    r = ws[W_R]
-    gr = ws[W_I]
+    r = ws[WS_R]
+    gr = ws[WS_I]
     eta = misc[DM_GEAR_EFF]
     nm = misc[DM_MOTORS]
     fade = misc[DM_FADE]
@@ -135,13 +135,13 @@ def _drive_axle(y, dy, d, kd, vc, dem, out, sg):
     sg[DS_TORQUE] = te
     sg[DS_SPEED] = wm
     sg[DS_CURRENT] = misc[DM_TO_RMS] * np.sqrt(out[O_ID] * out[O_ID] + out[O_IQ] * out[O_IQ])
-    sg[DS_CREEP] = (om * r - vc) / max(abs(vc), ws[W_VREG])
+    sg[DS_CREEP] = (om * r - vc) / max(abs(vc), ws[WS_VREG])
     sg[DS_FORCE] = misc[DM_PER_LOCO] * f
     sg[DS_PDC] = misc[DM_PER_LOCO] * out[O_PDC]
-    sg[DS_PSD] = y[z + S_PSD]
-    sg[DS_PSQ] = y[z + S_PSQ]
-    sg[DS_PRD] = y[z + S_PRD]
-    sg[DS_PRQ] = y[z + S_PRQ]
+    sg[DS_PSD] = y[z + IM_PSD]
+    sg[DS_PSQ] = y[z + IM_PSQ]
+    sg[DS_PRD] = y[z + IM_PRD]
+    sg[DS_PRQ] = y[z + IM_PRQ]
     return nm * f
 
 

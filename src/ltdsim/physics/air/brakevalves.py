@@ -110,7 +110,7 @@ CV_STATES = (
     "emergency_piston",     # emergency piston position, 0 closed .. 1 tripped, -
 )
 N_CV = len(CV_STATES)
-(S_AUX, S_CYL, S_CTRL, S_ER, S_QS, S_QA, S_PISTON, S_EM) = range(N_CV)
+(CV_AUX, CV_CYL, CV_CTRL, CV_ER, CV_QS, CV_QA, CV_PISTON, CV_EM) = range(N_CV)
 
 CV_PARAMS = (
     "family",                  # 0 UIC (graduated release), 1 AAR (direct release), -
@@ -146,10 +146,10 @@ CV_PARAMS = (
 )
 N_CV_PARAMS = len(CV_PARAMS)
 _CV = {name: i for i, name in enumerate(CV_PARAMS)}
-(P_FAMILY, P_VAUX, P_VCYL, P_VCTRL, P_VER, P_VQS, P_VQA, P_CHARGE, P_CTRL, P_ERCHARGE,
- P_APPLY, P_RELEASE, P_QS, P_QSVENT, P_QSCYL, P_QA, P_QAVENT, P_VENT, P_EMAPPLY,
- P_MAXCYL, P_FULLDROP, P_THRESH, P_RELTHRESH, P_BAND, P_TPISTON, P_QSLIMIT, P_TRIP,
- P_TRIPBAND, P_TEM, P_CUTOFF) = range(N_CV_PARAMS)
+(CVP_FAMILY, CVP_VAUX, CVP_VCYL, CVP_VCTRL, CVP_VER, CVP_VQS, CVP_VQA, CVP_CHARGE, CVP_CTRL, CVP_ERCHARGE,
+ CVP_APPLY, CVP_RELEASE, CVP_QS, CVP_QSVENT, CVP_QSCYL, CVP_QA, CVP_QAVENT, CVP_VENT, CVP_EMAPPLY,
+ CVP_MAXCYL, CVP_FULLDROP, CVP_THRESH, CVP_RELTHRESH, CVP_BAND, CVP_TPISTON, CVP_QSLIMIT, CVP_TRIP,
+ CVP_TRIPBAND, CVP_TEM, CVP_CUTOFF) = range(N_CV_PARAMS)
 
 # --- driver's brake valve ---------------------------------------------------------------
 DV_STATES = (
@@ -159,7 +159,7 @@ DV_STATES = (
     "governor",         # compressor governor, 0 off .. 1 on, -
 )
 N_DV = len(DV_STATES)
-(D_MR, D_ER, D_VENT, D_GOV) = range(N_DV)
+(DV_MR, DV_ER, DV_VENT, DV_GOV) = range(N_DV)
 
 DV_PARAMS = (
     "main_volume",            # m^3
@@ -185,9 +185,9 @@ DV_PARAMS = (
 )
 N_DV_PARAMS = len(DV_PARAMS)
 _DV = {name: i for i, name in enumerate(DV_PARAMS)}
-(Q_VMR, Q_VER, Q_REG, Q_FULL, Q_MIN, Q_CHARGE, Q_SERVICE, Q_EMERG, Q_FEED, Q_EXH,
- Q_VENT, Q_REGBAND, Q_RELBAND, Q_TVENT, Q_COMP, Q_CUTIN, Q_CUTOUT, Q_GOVBAND,
- Q_TGOV, Q_MRINIT) = range(N_DV_PARAMS)
+(DVP_VMR, DVP_VER, DVP_REG, DVP_FULL, DVP_MIN, DVP_CHARGE, DVP_SERVICE, DVP_EMERG, DVP_FEED, DVP_EXH,
+ DVP_VENT, DVP_REGBAND, DVP_RELBAND, DVP_TVENT, DVP_COMP, DVP_CUTIN, DVP_CUTOUT, DVP_GOVBAND,
+ DVP_TGOV, DVP_MRINIT) = range(N_DV_PARAMS)
 
 
 @njit(cache=True, forceinline=True)
@@ -238,90 +238,90 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
         to the atmosphere (kg/s). The valve's air mass changes at ``draw - exhaust``.
     """
     rt = r_gas * temperature
-    pa = s[S_AUX]
-    pc = s[S_CYL]
-    pr = s[S_CTRL]
-    pe = s[S_ER]
-    pq = s[S_QS]
-    pk = s[S_QA]
-    x = min(max(s[S_PISTON], -1.0), 1.0)
-    e = min(max(s[S_EM], 0.0), 1.0)
+    pa = s[CV_AUX]
+    pc = s[CV_CYL]
+    pr = s[CV_CTRL]
+    pe = s[CV_ER]
+    pq = s[CV_QS]
+    pk = s[CV_QA]
+    x = min(max(s[CV_PISTON], -1.0), 1.0)
+    e = min(max(s[CV_EM], 0.0), 1.0)
     pcg = pc - atmosphere
-    band = par[P_BAND]
+    band = par[CVP_BAND]
 
     # emergency portion: quick-action chamber against the pipe
     f_qa = 0.0
     f_qa_vent = 0.0
     f_vent = 0.0
-    if par[P_VQA] > 0.0:
-        f_qa = orifice_flow(p_bp, pk, par[P_QA], gamma, r_gas, temperature, r_lin)
-        f_qa_vent = _through(e, pk, atmosphere, par[P_QAVENT], gamma, r_gas,
+    if par[CVP_VQA] > 0.0:
+        f_qa = orifice_flow(p_bp, pk, par[CVP_QA], gamma, r_gas, temperature, r_lin)
+        f_qa_vent = _through(e, pk, atmosphere, par[CVP_QAVENT], gamma, r_gas,
                              temperature, r_lin)
-        f_vent = _through(e, p_bp, atmosphere, par[P_VENT], gamma, r_gas, temperature,
+        f_vent = _through(e, p_bp, atmosphere, par[CVP_VENT], gamma, r_gas, temperature,
                           r_lin)
-        e_target = _ramp((pk - p_bp - par[P_TRIP]) / par[P_TRIPBAND])
-        ds[S_EM] = (e_target - s[S_EM]) / par[P_TEM]
-        ds[S_QA] = rt / par[P_VQA] * (f_qa - f_qa_vent)
+        e_target = _ramp((pk - p_bp - par[CVP_TRIP]) / par[CVP_TRIPBAND])
+        ds[CV_EM] = (e_target - s[CV_EM]) / par[CVP_TEM]
+        ds[CV_QA] = rt / par[CVP_VQA] * (f_qa - f_qa_vent)
     else:
-        ds[S_EM] = -s[S_EM] / par[P_TEM]
-        ds[S_QA] = 0.0
+        ds[CV_EM] = -s[CV_EM] / par[CVP_TEM]
+        ds[CV_QA] = 0.0
 
     f_ctrl = 0.0
     f_er = 0.0
     f_em = 0.0
-    if par[P_FAMILY] == FAMILY_UIC:
+    if par[CVP_FAMILY] == FAMILY_UIC:
         # three-pressure law: the cylinder pressure the control reservoir asks for
-        span = par[P_FULLDROP] - par[P_THRESH]
-        target = par[P_MAXCYL] * min(max((pr - p_bp - par[P_THRESH]) / span, 0.0), 1.0)
+        span = par[CVP_FULLDROP] - par[CVP_THRESH]
+        target = par[CVP_MAXCYL] * min(max((pr - p_bp - par[CVP_THRESH]) / span, 0.0), 1.0)
         x_target = min(max((target - pcg) / band, -1.0), 1.0)
         # the auxiliary reservoir charges through a check valve, always
-        f_charge = _checked(1.0, p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
+        f_charge = _checked(1.0, p_bp, pa, par[CVP_CHARGE], gamma, r_gas, temperature,
                             r_lin)
-        if par[P_VCTRL] > 0.0:
-            f_ctrl = _through(_ramp(1.0 - pcg / par[P_CUTOFF]), p_bp, pr, par[P_CTRL],
+        if par[CVP_VCTRL] > 0.0:
+            f_ctrl = _through(_ramp(1.0 - pcg / par[CVP_CUTOFF]), p_bp, pr, par[CVP_CTRL],
                               gamma, r_gas, temperature, r_lin)
-            ds[S_CTRL] = rt / par[P_VCTRL] * f_ctrl
+            ds[CV_CTRL] = rt / par[CVP_VCTRL] * f_ctrl
         else:
-            ds[S_CTRL] = 0.0
+            ds[CV_CTRL] = 0.0
     else:
         # triple valve: auxiliary reservoir against the pipe, with piston friction
         d = pa - p_bp
         # the slide valve needs `threshold` to leave release or lap; once applying, the
         # lighter graduating valve laps as the reservoir falls to the pipe (with `band`
         # under `threshold` the piston snaps both ways: a physical hysteresis)
-        pull_apply = _ramp((d - par[P_THRESH] * (1.0 - max(x, 0.0))) / band)
-        pull_release = _ramp((-d - par[P_RELTHRESH]) / band)
+        pull_apply = _ramp((d - par[CVP_THRESH] * (1.0 - max(x, 0.0))) / band)
+        pull_release = _ramp((-d - par[CVP_RELTHRESH]) / band)
         x_target = pull_apply - pull_release + (1.0 - pull_apply - pull_release) * min(x, 0.0)
-        f_charge = _through(-x, p_bp, pa, par[P_CHARGE], gamma, r_gas, temperature,
+        f_charge = _through(-x, p_bp, pa, par[CVP_CHARGE], gamma, r_gas, temperature,
                             r_lin)
-        ds[S_CTRL] = 0.0
-    if par[P_VER] > 0.0:
-        f_er = _checked(-x, p_bp, pe, par[P_ERCHARGE], gamma, r_gas, temperature, r_lin)
-        f_em = _checked(e, pe, pc, par[P_EMAPPLY], gamma, r_gas, temperature, r_lin)
-        ds[S_ER] = rt / par[P_VER] * (f_er - f_em)
+        ds[CV_CTRL] = 0.0
+    if par[CVP_VER] > 0.0:
+        f_er = _checked(-x, p_bp, pe, par[CVP_ERCHARGE], gamma, r_gas, temperature, r_lin)
+        f_em = _checked(e, pe, pc, par[CVP_EMAPPLY], gamma, r_gas, temperature, r_lin)
+        ds[CV_ER] = rt / par[CVP_VER] * (f_er - f_em)
     else:
-        ds[S_ER] = 0.0
-    ds[S_PISTON] = (x_target - s[S_PISTON]) / par[P_TPISTON]
+        ds[CV_ER] = 0.0
+    ds[CV_PISTON] = (x_target - s[CV_PISTON]) / par[CVP_TPISTON]
 
     opening = max(x, 0.0)
-    f_apply = _checked(opening, pa, pc, par[P_APPLY], gamma, r_gas, temperature, r_lin)
-    f_release = _through(-x, pc, atmosphere, par[P_RELEASE], gamma, r_gas, temperature,
+    f_apply = _checked(opening, pa, pc, par[CVP_APPLY], gamma, r_gas, temperature, r_lin)
+    f_release = _through(-x, pc, atmosphere, par[CVP_RELEASE], gamma, r_gas, temperature,
                          r_lin)
     # quick service: while applying and the cylinder is still low
-    qs = opening * _ramp(1.0 - pcg / par[P_QSLIMIT])
-    f_qs_cyl = _checked(qs, p_bp, pc, par[P_QSCYL], gamma, r_gas, temperature, r_lin)
+    qs = opening * _ramp(1.0 - pcg / par[CVP_QSLIMIT])
+    f_qs_cyl = _checked(qs, p_bp, pc, par[CVP_QSCYL], gamma, r_gas, temperature, r_lin)
     f_qs = 0.0
     f_qs_vent = 0.0
-    if par[P_VQS] > 0.0:
-        f_qs = _checked(qs, p_bp, pq, par[P_QS], gamma, r_gas, temperature, r_lin)
-        f_qs_vent = orifice_flow(pq, atmosphere, par[P_QSVENT], gamma, r_gas, temperature,
+    if par[CVP_VQS] > 0.0:
+        f_qs = _checked(qs, p_bp, pq, par[CVP_QS], gamma, r_gas, temperature, r_lin)
+        f_qs_vent = orifice_flow(pq, atmosphere, par[CVP_QSVENT], gamma, r_gas, temperature,
                                  r_lin)
-        ds[S_QS] = rt / par[P_VQS] * (f_qs - f_qs_vent)
+        ds[CV_QS] = rt / par[CVP_VQS] * (f_qs - f_qs_vent)
     else:
-        ds[S_QS] = 0.0
+        ds[CV_QS] = 0.0
 
-    ds[S_AUX] = rt / par[P_VAUX] * (f_charge - f_apply)
-    ds[S_CYL] = rt / par[P_VCYL] * (f_apply + f_em + f_qs_cyl - f_release)
+    ds[CV_AUX] = rt / par[CVP_VAUX] * (f_charge - f_apply)
+    ds[CV_CYL] = rt / par[CVP_VCYL] * (f_apply + f_em + f_qs_cyl - f_release)
     draw = f_charge + f_ctrl + f_er + f_qs + f_qs_cyl + f_qa + f_vent
     exhaust = f_release + f_qs_vent + f_qa_vent + f_vent
     return draw, exhaust
@@ -359,10 +359,10 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
         ``compressor - into_pipe - exhaust`` (see :func:`driver_valve_compressor`).
     """
     rt = r_gas * temperature
-    pm = s[D_MR]
-    pe = s[D_ER]
-    v = min(max(s[D_VENT], 0.0), 1.0)
-    g = min(max(s[D_GOV], 0.0), 1.0)
+    pm = s[DV_MR]
+    pe = s[DV_ER]
+    v = min(max(s[DV_VENT], 0.0), 1.0)
+    g = min(max(s[DV_GOV], 0.0), 1.0)
 
     # regulating valve of the equalising reservoir
     f_erc = 0.0
@@ -370,40 +370,40 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
     v_target = 0.0
     if handle != H_LAP:
         if handle == H_RELEASE:
-            target = atmosphere + par[Q_REG]
-            cda = par[Q_SERVICE]
+            target = atmosphere + par[DVP_REG]
+            cda = par[DVP_SERVICE]
         elif handle == H_SERVICE:
-            target = max(atmosphere + par[Q_REG] - reduction, atmosphere)
-            cda = par[Q_SERVICE]
+            target = max(atmosphere + par[DVP_REG] - reduction, atmosphere)
+            cda = par[DVP_SERVICE]
         else:
             target = atmosphere
-            cda = par[Q_EMERG]
+            cda = par[DVP_EMERG]
             v_target = 1.0
-        err = (target - pe) / par[Q_REGBAND]
-        f_erc = _checked(_ramp(err), pm, pe, par[Q_CHARGE], gamma, r_gas, temperature,
+        err = (target - pe) / par[DVP_REGBAND]
+        f_erc = _checked(_ramp(err), pm, pe, par[DVP_CHARGE], gamma, r_gas, temperature,
                          r_lin)
         f_ere = _through(_ramp(-err), pe, atmosphere, cda, gamma, r_gas, temperature,
                          r_lin)
     # relay valve: the pipe follows the equalising reservoir
-    z = (pe - p_bp) / par[Q_RELBAND]
-    feed = _checked(_ramp(z), pm, p_bp, par[Q_FEED], gamma, r_gas, temperature, r_lin)
-    rex = _through(_ramp(-z), p_bp, atmosphere, par[Q_EXH], gamma, r_gas, temperature,
+    z = (pe - p_bp) / par[DVP_RELBAND]
+    feed = _checked(_ramp(z), pm, p_bp, par[DVP_FEED], gamma, r_gas, temperature, r_lin)
+    rex = _through(_ramp(-z), p_bp, atmosphere, par[DVP_EXH], gamma, r_gas, temperature,
                    r_lin)
-    f_vent = _through(v, p_bp, atmosphere, par[Q_VENT], gamma, r_gas, temperature, r_lin)
-    ds[D_VENT] = (v_target - s[D_VENT]) / par[Q_TVENT]
+    f_vent = _through(v, p_bp, atmosphere, par[DVP_VENT], gamma, r_gas, temperature, r_lin)
+    ds[DV_VENT] = (v_target - s[DV_VENT]) / par[DVP_TVENT]
     # compressor governor with hysteresis
     comp = 0.0
-    if par[Q_COMP] > 0.0:
+    if par[DVP_COMP] > 0.0:
         pmg = pm - atmosphere
-        pull_on = _ramp((par[Q_CUTIN] - pmg) / par[Q_GOVBAND])
-        pull_off = _ramp((pmg - par[Q_CUTOUT]) / par[Q_GOVBAND])
+        pull_on = _ramp((par[DVP_CUTIN] - pmg) / par[DVP_GOVBAND])
+        pull_off = _ramp((pmg - par[DVP_CUTOUT]) / par[DVP_GOVBAND])
         g_target = pull_on + (1.0 - pull_on - pull_off) * g
-        ds[D_GOV] = (g_target - s[D_GOV]) / par[Q_TGOV]
-        comp = g * par[Q_COMP]
+        ds[DV_GOV] = (g_target - s[DV_GOV]) / par[DVP_TGOV]
+        comp = g * par[DVP_COMP]
     else:
-        ds[D_GOV] = 0.0
-    ds[D_MR] = rt / par[Q_VMR] * (comp - f_erc - feed)
-    ds[D_ER] = rt / par[Q_VER] * (f_erc - f_ere)
+        ds[DV_GOV] = 0.0
+    ds[DV_MR] = rt / par[DVP_VMR] * (comp - f_erc - feed)
+    ds[DV_ER] = rt / par[DVP_VER] * (f_erc - f_ere)
     return feed - rex - f_vent, f_ere + rex + f_vent
 
 
@@ -411,23 +411,23 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
 def driver_valve_compressor(s, par):
     """Mass flow the compressor delivers into the main reservoir, kg/s (the air the
     train gains; add it to the conservation balance)."""
-    if par[Q_COMP] <= 0.0:
+    if par[DVP_COMP] <= 0.0:
         return 0.0
-    return min(max(s[D_GOV], 0.0), 1.0) * par[Q_COMP]
+    return min(max(s[DV_GOV], 0.0), 1.0) * par[DVP_COMP]
 
 
 @njit(cache=True)
 def control_valve_mass(s, par, r_gas, temperature):
     """Air mass in one control valve's volumes, kg."""
-    return (s[S_AUX] * par[P_VAUX] + s[S_CYL] * par[P_VCYL] + s[S_CTRL] * par[P_VCTRL]
-            + s[S_ER] * par[P_VER] + s[S_QS] * par[P_VQS] + s[S_QA] * par[P_VQA]
+    return (s[CV_AUX] * par[CVP_VAUX] + s[CV_CYL] * par[CVP_VCYL] + s[CV_CTRL] * par[CVP_VCTRL]
+            + s[CV_ER] * par[CVP_VER] + s[CV_QS] * par[CVP_VQS] + s[CV_QA] * par[CVP_VQA]
             ) / (r_gas * temperature)
 
 
 @njit(cache=True)
 def driver_valve_mass(s, par, r_gas, temperature):
     """Air mass in one driver's valve's reservoirs, kg."""
-    return (s[D_MR] * par[Q_VMR] + s[D_ER] * par[Q_VER]) / (r_gas * temperature)
+    return (s[DV_MR] * par[DVP_VMR] + s[DV_ER] * par[DVP_VER]) / (r_gas * temperature)
 
 
 # --- parameter rows from presets ----------------------------------------------------------
@@ -514,27 +514,27 @@ def control_valve_row(preset: dict) -> np.ndarray:
     if family not in ("uic", "aar"):
         raise ValueError(f"control_valve.family: {family!r}; allowed: 'uic', 'aar'")
     row = _row(preset, CV_PARAMS, _CV_ORIFICES, _POSITIVE_CV, "control_valve", {})
-    row[P_FAMILY] = FAMILY_UIC if family == "uic" else FAMILY_AAR
+    row[CVP_FAMILY] = FAMILY_UIC if family == "uic" else FAMILY_AAR
     if family == "uic":
         for key in ("control_volume", "control_cda", "max_cylinder", "full_drop",
                     "control_cutoff"):
             if row[_CV[key]] <= 0.0:
                 raise ValueError(f"control_valve: {key.replace('_cda', '_diameter')} "
                                  "must be given and > 0 for family 'uic'")
-        if row[P_FULLDROP] <= row[P_THRESH]:
+        if row[CVP_FULLDROP] <= row[CVP_THRESH]:
             raise ValueError("control_valve.full_drop must exceed control_valve.threshold")
     else:
-        if row[P_RELTHRESH] <= 0.0 or row[P_THRESH] <= 0.0:
+        if row[CVP_RELTHRESH] <= 0.0 or row[CVP_THRESH] <= 0.0:
             raise ValueError("control_valve: threshold and release_threshold must be "
                              "given and > 0 for family 'aar'")
-    if row[P_VQA] > 0.0:
+    if row[CVP_VQA] > 0.0:
         for key in ("quick_action_cda", "trip"):
             if row[_CV[key]] <= 0.0:
                 raise ValueError(f"control_valve: {key.replace('_cda', '_diameter')} must "
                                  "be given and > 0 with a quick_action_volume")
     # an orifice into a volume that is not there is closed
-    for vol, cdas in ((P_VCTRL, (P_CTRL,)), (P_VER, (P_ERCHARGE, P_EMAPPLY)),
-                      (P_VQS, (P_QS, P_QSVENT)), (P_VQA, (P_QA, P_QAVENT, P_VENT))):
+    for vol, cdas in ((CVP_VCTRL, (CVP_CTRL,)), (CVP_VER, (CVP_ERCHARGE, CVP_EMAPPLY)),
+                      (CVP_VQS, (CVP_QS, CVP_QSVENT)), (CVP_VQA, (CVP_QA, CVP_QAVENT, CVP_VENT))):
         if row[vol] <= 0.0:
             for c in cdas:
                 row[c] = 0.0
@@ -545,15 +545,15 @@ def driver_valve_row(preset: dict) -> np.ndarray:
     """The driver's-valve parameter row (:data:`DV_PARAMS`, float64) from a preset's
     ``[driver_valve]`` table (units as in :func:`control_valve_row`)."""
     row = _row(preset, DV_PARAMS, _DV_ORIFICES, _POSITIVE_DV, "driver_valve", {})
-    if row[Q_FULL] >= row[Q_REG] or row[Q_MIN] > row[Q_FULL]:
+    if row[DVP_FULL] >= row[DVP_REG] or row[DVP_MIN] > row[DVP_FULL]:
         raise ValueError("driver_valve: need minimum_reduction <= full_reduction < regulated")
-    if row[Q_COMP] > 0.0:
-        if not 0.0 < row[Q_CUTIN] < row[Q_CUTOUT]:
+    if row[DVP_COMP] > 0.0:
+        if not 0.0 < row[DVP_CUTIN] < row[DVP_CUTOUT]:
             raise ValueError("driver_valve: need 0 < cut_in < cut_out with a compressor")
-        if row[Q_GOVBAND] <= 0.0 or row[Q_TGOV] <= 0.0:
+        if row[DVP_GOVBAND] <= 0.0 or row[DVP_TGOV] <= 0.0:
             raise ValueError("driver_valve: governor_band and governor_time must be > 0 "
                              "with a compressor")
-    if row[Q_MRINIT] <= row[Q_REG]:
+    if row[DVP_MRINIT] <= row[DVP_REG]:
         raise ValueError("driver_valve.main_initial must exceed driver_valve.regulated")
     return row
 
@@ -565,10 +565,10 @@ def control_valve_init(p_bp_abs: float, par: np.ndarray,
     cylinder and quick-service bulb at ``atmosphere`` (Pa abs), piston in release (-1),
     emergency piston closed (0). Unused volumes (zero in ``par``) hold no air."""
     s = np.empty(N_CV)
-    s[S_AUX] = s[S_CTRL] = s[S_ER] = s[S_QA] = p_bp_abs
-    s[S_CYL] = s[S_QS] = atmosphere
-    s[S_PISTON] = -1.0
-    s[S_EM] = 0.0
+    s[CV_AUX] = s[CV_CTRL] = s[CV_ER] = s[CV_QA] = p_bp_abs
+    s[CV_CYL] = s[CV_QS] = atmosphere
+    s[CV_PISTON] = -1.0
+    s[CV_EM] = 0.0
     return s
 
 
@@ -578,22 +578,11 @@ def driver_valve_init(p_bp_abs: float, par: np.ndarray,
     to ``p_bp_abs`` (Pa abs): main reservoir at ``main_initial``, equalising reservoir
     at the pipe pressure, vent closed, compressor governor off."""
     s = np.empty(N_DV)
-    s[D_MR] = atmosphere + par[Q_MRINIT]
-    s[D_ER] = p_bp_abs
-    s[D_VENT] = 0.0
-    s[D_GOV] = 0.0
+    s[DV_MR] = atmosphere + par[DVP_MRINIT]
+    s[DV_ER] = p_bp_abs
+    s[DV_VENT] = 0.0
+    s[DV_GOV] = 0.0
     return s
-
-
-def handle_command(name: str, par: np.ndarray) -> tuple[int, float]:
-    """The handle code and reduction (Pa) of a handle position named ``name``
-    ("release", "minimum", "full", "emergency", "lap") for a driver's valve row."""
-    table = {"release": (H_RELEASE, 0.0), "minimum": (H_SERVICE, float(par[Q_MIN])),
-             "full": (H_SERVICE, float(par[Q_FULL])), "emergency": (H_EMERGENCY, 0.0),
-             "lap": (H_LAP, 0.0)}
-    if name not in table:
-        raise ValueError(f"handle {name!r}; allowed: {', '.join(table)}")
-    return table[name]
 
 
 def quick_action_lag(par: np.ndarray, rate: float, p_abs: float, gamma: float = 1.4,
@@ -609,7 +598,7 @@ def quick_action_lag(par: np.ndarray, rate: float, p_abs: float, gamma: float = 
     which the steady lag equals ``trip`` is the preset's emergency rate."""
     from scipy.optimize import brentq
 
-    v, cda = par[P_VQA], par[P_QA]
+    v, cda = par[CVP_VQA], par[CVP_QA]
     if v <= 0.0 or cda <= 0.0 or rate <= 0.0:
         return 0.0 if rate <= 0.0 else math.inf
     need = v * rate / (r_gas * temperature)
@@ -661,32 +650,32 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
     atmos = 0.0  # the atmosphere, an infinite volume: it adds 1/V = 0
     rates = []
     if kind == "control":
-        va, vc, vr, ve = par[P_VAUX], par[P_VCYL], par[P_VCTRL], par[P_VER]
-        vq, vk = par[P_VQS], par[P_VQA]
-        rates += [pair(par[P_CHARGE], cell_volume, va), pair(par[P_CTRL], cell_volume, vr),
-                  pair(par[P_ERCHARGE], cell_volume, ve), pair(par[P_APPLY], va, vc),
-                  pair(par[P_RELEASE], vc, atmos), pair(par[P_QS], cell_volume, vq),
-                  pair(par[P_QSVENT], vq, atmos), pair(par[P_QSCYL], cell_volume, vc),
-                  pair(par[P_QA], cell_volume, vk), pair(par[P_QAVENT], vk, atmos),
-                  pair(par[P_VENT], cell_volume, atmos), pair(par[P_EMAPPLY], ve, vc),
-                  1.0 / par[P_TPISTON], 1.0 / par[P_TEM]]
-        f_full = _choked(max(par[P_APPLY], par[P_RELEASE]), p_max, gamma, r_gas, temperature)
-        if par[P_FAMILY] == FAMILY_UIC:
-            rates.append(rt * f_full / (vc * par[P_BAND]))
+        va, vc, vr, ve = par[CVP_VAUX], par[CVP_VCYL], par[CVP_VCTRL], par[CVP_VER]
+        vq, vk = par[CVP_VQS], par[CVP_VQA]
+        rates += [pair(par[CVP_CHARGE], cell_volume, va), pair(par[CVP_CTRL], cell_volume, vr),
+                  pair(par[CVP_ERCHARGE], cell_volume, ve), pair(par[CVP_APPLY], va, vc),
+                  pair(par[CVP_RELEASE], vc, atmos), pair(par[CVP_QS], cell_volume, vq),
+                  pair(par[CVP_QSVENT], vq, atmos), pair(par[CVP_QSCYL], cell_volume, vc),
+                  pair(par[CVP_QA], cell_volume, vk), pair(par[CVP_QAVENT], vk, atmos),
+                  pair(par[CVP_VENT], cell_volume, atmos), pair(par[CVP_EMAPPLY], ve, vc),
+                  1.0 / par[CVP_TPISTON], 1.0 / par[CVP_TEM]]
+        f_full = _choked(max(par[CVP_APPLY], par[CVP_RELEASE]), p_max, gamma, r_gas, temperature)
+        if par[CVP_FAMILY] == FAMILY_UIC:
+            rates.append(rt * f_full / (vc * par[CVP_BAND]))
         else:
-            rates.append(rt * f_full / (va * par[P_BAND]))
+            rates.append(rt * f_full / (va * par[CVP_BAND]))
     elif kind == "driver":
-        vm, ver = par[Q_VMR], par[Q_VER]
-        rates += [pair(par[Q_CHARGE], vm, ver), pair(par[Q_SERVICE], ver, atmos),
-                  pair(par[Q_EMERG], ver, atmos), pair(par[Q_FEED], vm, cell_volume),
-                  pair(par[Q_EXH], cell_volume, atmos), pair(par[Q_VENT], cell_volume, atmos),
-                  1.0 / par[Q_TVENT],
-                  rt * _choked(par[Q_CHARGE], p_max, gamma, r_gas, temperature)
-                  / (ver * par[Q_REGBAND]),
-                  rt * _choked(max(par[Q_FEED], par[Q_EXH]), p_max, gamma, r_gas,
-                               temperature) / (cell_volume * par[Q_RELBAND])]
-        if par[Q_COMP] > 0.0:
-            rates.append(1.0 / par[Q_TGOV])
+        vm, ver = par[DVP_VMR], par[DVP_VER]
+        rates += [pair(par[DVP_CHARGE], vm, ver), pair(par[DVP_SERVICE], ver, atmos),
+                  pair(par[DVP_EMERG], ver, atmos), pair(par[DVP_FEED], vm, cell_volume),
+                  pair(par[DVP_EXH], cell_volume, atmos), pair(par[DVP_VENT], cell_volume, atmos),
+                  1.0 / par[DVP_TVENT],
+                  rt * _choked(par[DVP_CHARGE], p_max, gamma, r_gas, temperature)
+                  / (ver * par[DVP_REGBAND]),
+                  rt * _choked(max(par[DVP_FEED], par[DVP_EXH]), p_max, gamma, r_gas,
+                               temperature) / (cell_volume * par[DVP_RELBAND])]
+        if par[DVP_COMP] > 0.0:
+            rates.append(1.0 / par[DVP_TGOV])
     else:
         raise ValueError(f"kind {kind!r}; allowed: 'control', 'driver'")
     return float(max(rates))

@@ -69,7 +69,7 @@ CREEP_PARAMS = (
     "kS",          # Polach's reduction factor in the area of slip, -
 )
 N_CREEP_PARAMS = len(CREEP_PARAMS)
-(C_MU0, C_A, C_B, C_KA, C_KS) = range(N_CREEP_PARAMS)
+(CR_MU0, CR_A, CR_B, CR_KA, CR_KS) = range(N_CREEP_PARAMS)
 
 # --- parameter row of a driven wheelset ---------------------------------------------------
 WHEELSET_PARAMS = (
@@ -81,11 +81,10 @@ WHEELSET_PARAMS = (
     "v_reg",         # creep regularisation speed, m/s
 )
 N_WHEELSET_PARAMS = len(WHEELSET_PARAMS)
-(W_Q, W_F11, W_R, W_J, W_I, W_VREG) = range(N_WHEELSET_PARAMS)
+(WS_Q, WS_F11, WS_R, WS_J, WS_I, WS_VREG) = range(N_WHEELSET_PARAMS)
 
 # --- slip controller ---------------------------------------------------------------------
 SLIP_STATES = ("torque_limit",)  # the controller's torque limit at the wheel, N m
-N_SLIP_STATES = len(SLIP_STATES)
 SLIP_PARAMS = (
     "w_set",       # slip velocity the controller holds the wheel to at most at standstill, m/s
     "w_slope",     # rise of that set value with the vehicle speed, (m/s)/(m/s)
@@ -95,7 +94,7 @@ SLIP_PARAMS = (
     "tracking",    # rate at which a limit above the demand follows it down, 1/s
 )
 N_SLIP_PARAMS = len(SLIP_PARAMS)
-(S_WSET, S_WSLOPE, S_GAIN, S_RATE, S_RECOV, S_TRACK) = range(N_SLIP_PARAMS)
+(SL_WSET, SL_WSLOPE, SL_GAIN, SL_RATE, SL_RECOV, SL_TRACK) = range(N_SLIP_PARAMS)
 
 
 @njit(cache=True, forceinline=True)
@@ -133,10 +132,10 @@ def creep_force(omega, v, ws, cp):
     """Creep force of the whole wheelset (two wheels) on the vehicle, N, positive
     forward, at wheelset speed ``omega`` (rad/s) and vehicle speed ``v`` (m/s);
     ``ws`` a :data:`WHEELSET_PARAMS` row, ``cp`` a :data:`CREEP_PARAMS` row."""
-    w = omega * ws[W_R] - v
-    s = w / max(abs(v), ws[W_VREG])
-    return 2.0 * polach_force(s, w, ws[W_Q], ws[W_F11], cp[C_MU0], cp[C_A], cp[C_B],
-                              cp[C_KA], cp[C_KS])
+    w = omega * ws[WS_R] - v
+    s = w / max(abs(v), ws[WS_VREG])
+    return 2.0 * polach_force(s, w, ws[WS_Q], ws[WS_F11], cp[CR_MU0], cp[CR_A], cp[CR_B],
+                              cp[CR_KA], cp[CR_KS])
 
 
 @njit(cache=True)
@@ -145,7 +144,7 @@ def wheelset_rate(omega, v, wheel_torque, ws, cp):
     N: ``(T_w - F r) / J`` with ``F`` from :func:`creep_force`; ``wheel_torque`` N m at
     the wheelset."""
     f = creep_force(omega, v, ws, cp)
-    return (wheel_torque - f * ws[W_R]) / ws[W_J], f
+    return (wheel_torque - f * ws[WS_R]) / ws[WS_J], f
 
 
 @njit(cache=True)
@@ -175,15 +174,15 @@ def slip_control(torque_limit, demand, omega, v, radius, sp):
     """
     if demand <= 0.0:
         return demand, 0.0
-    e = omega * radius - v - (sp[S_WSET] + sp[S_WSLOPE] * abs(v))
-    rate = min(-sp[S_RATE] * e, sp[S_RECOV])
+    e = omega * radius - v - (sp[SL_WSET] + sp[SL_WSLOPE] * abs(v))
+    rate = min(-sp[SL_RATE] * e, sp[SL_RECOV])
     if torque_limit > demand:
-        rate = min(rate, -sp[S_TRACK] * (torque_limit - demand))
+        rate = min(rate, -sp[SL_TRACK] * (torque_limit - demand))
     elif torque_limit == demand and rate > 0.0:
         rate = 0.0
     if torque_limit <= 0.0 and rate < 0.0:
         rate = 0.0
-    torque = torque_limit - sp[S_GAIN] * max(e, 0.0)
+    torque = torque_limit - sp[SL_GAIN] * max(e, 0.0)
     torque = min(max(torque, 0.0), demand)
     return torque, rate
 

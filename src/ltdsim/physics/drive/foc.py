@@ -79,18 +79,18 @@ import numpy as np
 from numba import njit
 
 from ltdsim.physics.drive.induction import (
-    M_LM,
-    M_LR,
-    M_LS,
-    M_P,
-    M_RR,
-    M_RS,
+    MP_LM,
+    MP_LR,
+    MP_LS,
+    MP_P,
+    MP_RR,
+    MP_RS,
     MOTOR_STATES,
     N_MOTOR,
-    S_PRD,
-    S_PRQ,
-    S_PSD,
-    S_PSQ,
+    IM_PRD,
+    IM_PRQ,
+    IM_PSD,
+    IM_PSQ,
     currents,
     machine_rates,
     motor_row,
@@ -103,7 +103,7 @@ CTRL_STATES = (
 )
 DRIVE_STATES = MOTOR_STATES + CTRL_STATES
 N_DRIVE = len(DRIVE_STATES)
-(S_FLUX, S_ID, S_IQ) = range(N_MOTOR, N_DRIVE)
+(FOC_FLUX, FOC_ID, FOC_IQ) = range(N_MOTOR, N_DRIVE)
 
 CTRL_PARAMS = (
     "pole_pairs",        # -
@@ -208,7 +208,7 @@ def drive_rates(y, wm, t_ref, v_dc, m, c, dy, out):
     taur = c[C_TAUR]
     wr = p * wm
     isd, isq, _, _ = currents(y, m)
-    psi = y[S_FLUX]
+    psi = y[FOC_FLUX]
     psi_div = max(psi, c[C_PSIMIN])
     wsl = lm * isq / (taur * psi_div)
     we = wr + wsl
@@ -240,16 +240,16 @@ def drive_rates(y, wm, t_ref, v_dc, m, c, dy, out):
     eq = iq_ref - isq
     vd_ff = -we * sls * isq - lm * c[C_RR] / (lr * lr) * psi
     vq_ff = we * sls * isd + wr * lm / lr * psi
-    vd_dem = y[S_ID] + c[C_KP] * ed + vd_ff
-    vq_dem = y[S_IQ] + c[C_KP] * eq + vq_ff
+    vd_dem = y[FOC_ID] + c[C_KP] * ed + vd_ff
+    vq_dem = y[FOC_IQ] + c[C_KP] * eq + vq_ff
     # d axis first (the flux must follow its reference), the q axis gets what is left
     vd = min(max(vd_dem, -vmax), vmax)
     vq_lim = math.sqrt(max(vmax * vmax - vd * vd, 0.0))
     vq = min(max(vq_dem, -vq_lim), vq_lim)
     wc = c[C_WC]
-    dy[S_FLUX] = (lm * isd - psi) / taur
-    dy[S_ID] = c[C_KI] * ed + wc * (vd - vd_dem)
-    dy[S_IQ] = c[C_KI] * eq + wc * (vq - vq_dem)
+    dy[FOC_FLUX] = (lm * isd - psi) / taur
+    dy[FOC_ID] = c[C_KI] * ed + wc * (vd - vd_dem)
+    dy[FOC_IQ] = c[C_KI] * eq + wc * (vq - vq_dem)
 
     te = machine_rates(y, vd, vq, we, wr, m, dy)
     out[O_T] = te
@@ -262,7 +262,7 @@ def drive_rates(y, wm, t_ref, v_dc, m, c, dy, out):
     out[O_IQREF] = iq_ref
     out[O_TREF] = t_star
     out[O_WE] = we
-    out[O_PSIR] = math.sqrt(y[S_PRD] * y[S_PRD] + y[S_PRQ] * y[S_PRQ])
+    out[O_PSIR] = math.sqrt(y[IM_PRD] * y[IM_PRD] + y[IM_PRQ] * y[IM_PRQ])
     out[O_PSIREF] = lm * id_ref
     return te
 
@@ -277,14 +277,14 @@ def controller_row(motor) -> np.ndarray:
 
     m = motor_row(motor)
     c = np.zeros(N_CTRL_PARAMS)
-    c[C_P], c[C_RS], c[C_RR] = m[M_P], m[M_RS], m[M_RR]
-    c[C_LS], c[C_LR], c[C_LM] = m[M_LS], m[M_LR], m[M_LM]
-    c[C_SIGMA] = 1.0 - m[M_LM] ** 2 / (m[M_LS] * m[M_LR])
-    c[C_RSIG] = m[M_RS] + (m[M_LM] / m[M_LR]) ** 2 * m[M_RR]
-    c[C_TAUR] = m[M_LR] / m[M_RR]
+    c[C_P], c[C_RS], c[C_RR] = m[MP_P], m[MP_RS], m[MP_RR]
+    c[C_LS], c[C_LR], c[C_LM] = m[MP_LS], m[MP_LR], m[MP_LM]
+    c[C_SIGMA] = 1.0 - m[MP_LM] ** 2 / (m[MP_LS] * m[MP_LR])
+    c[C_RSIG] = m[MP_RS] + (m[MP_LM] / m[MP_LR]) ** 2 * m[MP_RR]
+    c[C_TAUR] = m[MP_LR] / m[MP_RR]
     wc = 2.0 * math.pi * motor.current_bandwidth
     c[C_WC] = wc
-    c[C_KP] = wc * c[C_SIGMA] * m[M_LS]
+    c[C_KP] = wc * c[C_SIGMA] * m[MP_LS]
     c[C_KI] = wc * c[C_RSIG]
     c[C_PSI0] = rated_flux(motor, m)
     c[C_PSIMIN] = 0.05 * c[C_PSI0]
@@ -327,15 +327,15 @@ def oriented_state(m: np.ndarray, c: np.ndarray, i_d: float, i_q: float,
     frame speed cancels out). It is a steady state of :func:`drive_rates` when the
     currents are the controller's references there and the inverter does not limit the
     voltage (:func:`drive_steady` finds them)."""
-    lm, ls, lr = m[M_LM], m[M_LS], m[M_LR]
+    lm, ls, lr = m[MP_LM], m[MP_LS], m[MP_LR]
     psi = lm * i_d if flux is None else float(flux)
     y = np.zeros(N_DRIVE)
-    y[S_PSD] = ls * i_d
-    y[S_PSQ] = (ls - lm * lm / lr) * i_q      # sigma L_s i_q
-    y[S_PRD] = psi
-    y[S_FLUX] = psi
-    y[S_ID] = c[C_RSIG] * i_d
-    y[S_IQ] = c[C_RSIG] * i_q
+    y[IM_PSD] = ls * i_d
+    y[IM_PSQ] = (ls - lm * lm / lr) * i_q      # sigma L_s i_q
+    y[IM_PRD] = psi
+    y[FOC_FLUX] = psi
+    y[FOC_ID] = c[C_RSIG] * i_d
+    y[FOC_IQ] = c[C_RSIG] * i_q
     return y
 
 
@@ -347,7 +347,7 @@ def drive_init(m: np.ndarray, c: np.ndarray, flux: float | None = None) -> np.nd
     where field weakening begins at no torque; :func:`drive_steady` is the steady state
     at any speed and torque demand."""
     psi = c[C_PSI0] if flux is None else float(flux)
-    return oriented_state(m, c, psi / m[M_LM], 0.0, psi)
+    return oriented_state(m, c, psi / m[MP_LM], 0.0, psi)
 
 
 def drive_steady(m: np.ndarray, c: np.ndarray, wm: float, t_ref: float, v_dc: float,
@@ -380,7 +380,7 @@ def drive_steady(m: np.ndarray, c: np.ndarray, wm: float, t_ref: float, v_dc: fl
     dy = np.zeros(N_DRIVE)
     out = np.zeros(N_OUT)
     imax = c[C_IMAX]
-    i_d, i_q = c[C_PSI0] / m[M_LM], 0.0
+    i_d, i_q = c[C_PSI0] / m[MP_LM], 0.0
     for _ in range(max_iter):
         drive_rates(oriented_state(m, c, i_d, i_q), wm, t_ref, v_dc, m, c, dy, out)
         d_new, q_new = out[O_IDREF], out[O_IQREF]
@@ -393,7 +393,7 @@ def drive_steady(m: np.ndarray, c: np.ndarray, wm: float, t_ref: float, v_dc: fl
     y = oriented_state(m, c, i_d, i_q, c[C_PSI0] if i_d == c[C_PSI0] / c[C_LM] else None)
     drive_rates(y, wm, t_ref, v_dc, m, c, dy, out)
     scale = np.full(N_DRIVE, v_dc / math.sqrt(3.0))
-    scale[S_ID] = scale[S_IQ] = c[C_KI] * imax
+    scale[FOC_ID] = scale[FOC_IQ] = c[C_KI] * imax
     worst = float(np.max(np.abs(dy) / scale))
     if not worst <= 1e-9:
         raise ValueError(f"drive_steady: no steady state at shaft speed {wm:.6g} rad/s "

@@ -52,7 +52,7 @@ MOTOR_STATES = (
     "psi_rq",   # rotor flux linkage, q axis, Wb
 )
 N_MOTOR = len(MOTOR_STATES)
-(S_PSD, S_PSQ, S_PRD, S_PRQ) = range(N_MOTOR)
+(IM_PSD, IM_PSQ, IM_PRD, IM_PRQ) = range(N_MOTOR)
 
 MOTOR_PARAMS = (
     "pole_pairs",               # -
@@ -63,21 +63,21 @@ MOTOR_PARAMS = (
     "magnetising_inductance",   # L_m, H
 )
 N_MOTOR_PARAMS = len(MOTOR_PARAMS)
-(M_P, M_RS, M_RR, M_LS, M_LR, M_LM) = range(N_MOTOR_PARAMS)
+(MP_P, MP_RS, MP_RR, MP_LS, MP_LR, MP_LM) = range(N_MOTOR_PARAMS)
 
 
 @njit(cache=True, forceinline=True)
 def currents(s, par):
     """Stator and rotor currents ``(i_sd, i_sq, i_rd, i_rq)``, A (peak), of the flux
     linkages ``s`` (:data:`MOTOR_STATES`, Wb): the inverse of the inductance matrix."""
-    ls = par[M_LS]
-    lr = par[M_LR]
-    lm = par[M_LM]
+    ls = par[MP_LS]
+    lr = par[MP_LR]
+    lm = par[MP_LM]
     det = ls * lr - lm * lm
-    isd = (lr * s[S_PSD] - lm * s[S_PRD]) / det
-    isq = (lr * s[S_PSQ] - lm * s[S_PRQ]) / det
-    ird = (ls * s[S_PRD] - lm * s[S_PSD]) / det
-    irq = (ls * s[S_PRQ] - lm * s[S_PSQ]) / det
+    isd = (lr * s[IM_PSD] - lm * s[IM_PRD]) / det
+    isq = (lr * s[IM_PSQ] - lm * s[IM_PRQ]) / det
+    ird = (ls * s[IM_PRD] - lm * s[IM_PSD]) / det
+    irq = (ls * s[IM_PRQ] - lm * s[IM_PSQ]) / det
     return isd, isq, ird, irq
 
 
@@ -106,25 +106,25 @@ def machine_rates(s, vd, vq, we, wr, par, ds):
         Electromagnetic torque on the rotor, N m (positive motoring for ``w_m > 0``).
     """
     isd, isq, ird, irq = currents(s, par)
-    ds[S_PSD] = vd - par[M_RS] * isd + we * s[S_PSQ]
-    ds[S_PSQ] = vq - par[M_RS] * isq - we * s[S_PSD]
-    ds[S_PRD] = -par[M_RR] * ird + (we - wr) * s[S_PRQ]
-    ds[S_PRQ] = -par[M_RR] * irq - (we - wr) * s[S_PRD]
-    return 1.5 * par[M_P] * (s[S_PSD] * isq - s[S_PSQ] * isd)
+    ds[IM_PSD] = vd - par[MP_RS] * isd + we * s[IM_PSQ]
+    ds[IM_PSQ] = vq - par[MP_RS] * isq - we * s[IM_PSD]
+    ds[IM_PRD] = -par[MP_RR] * ird + (we - wr) * s[IM_PRQ]
+    ds[IM_PRQ] = -par[MP_RR] * irq - (we - wr) * s[IM_PRD]
+    return 1.5 * par[MP_P] * (s[IM_PSD] * isq - s[IM_PSQ] * isd)
 
 
 @njit(cache=True)
 def torque(s, par):
     """Electromagnetic torque ``3/2 p (psi_sd i_sq - psi_sq i_sd)``, N m."""
     isd, isq, _, _ = currents(s, par)
-    return 1.5 * par[M_P] * (s[S_PSD] * isq - s[S_PSQ] * isd)
+    return 1.5 * par[MP_P] * (s[IM_PSD] * isq - s[IM_PSQ] * isd)
 
 
 @njit(cache=True)
 def copper_loss(s, par):
     """Stator and rotor copper loss ``3/2 (R_s |i_s|^2 + R_r |i_r|^2)``, W."""
     isd, isq, ird, irq = currents(s, par)
-    return 1.5 * (par[M_RS] * (isd * isd + isq * isq) + par[M_RR] * (ird * ird + irq * irq))
+    return 1.5 * (par[MP_RS] * (isd * isd + isq * isq) + par[MP_RR] * (ird * ird + irq * irq))
 
 
 @njit(cache=True)
@@ -132,7 +132,7 @@ def magnetic_energy(s, par):
     """Magnetic energy stored in the machine's inductances ``3/4 (psi_s.i_s + psi_r.i_r)``,
     J (the 3/2 of the amplitude-invariant transformation times 1/2 i^T L i)."""
     isd, isq, ird, irq = currents(s, par)
-    return 0.75 * (s[S_PSD] * isd + s[S_PSQ] * isq + s[S_PRD] * ird + s[S_PRQ] * irq)
+    return 0.75 * (s[IM_PSD] * isd + s[IM_PSQ] * isq + s[IM_PRD] * ird + s[IM_PRQ] * irq)
 
 
 # --- set-up in Python: parameter row, closed form, derivation from ratings ---------------
@@ -141,12 +141,12 @@ def motor_row(motor) -> np.ndarray:
     """The machine's parameter row (:data:`MOTOR_PARAMS`, float64) from a
     :class:`ltdsim.scenario.motor.Motor`."""
     row = np.zeros(N_MOTOR_PARAMS)
-    row[M_P] = motor.pole_pairs
-    row[M_RS] = motor.stator_resistance
-    row[M_RR] = motor.rotor_resistance
-    row[M_LM] = motor.magnetising_inductance
-    row[M_LS] = motor.stator_leakage_inductance + motor.magnetising_inductance
-    row[M_LR] = motor.rotor_leakage_inductance + motor.magnetising_inductance
+    row[MP_P] = motor.pole_pairs
+    row[MP_RS] = motor.stator_resistance
+    row[MP_RR] = motor.rotor_resistance
+    row[MP_LM] = motor.magnetising_inductance
+    row[MP_LS] = motor.stator_leakage_inductance + motor.magnetising_inductance
+    row[MP_LR] = motor.rotor_leakage_inductance + motor.magnetising_inductance
     return row
 
 
@@ -163,16 +163,16 @@ def equivalent_circuit(par: np.ndarray, v_peak: float, we: float, slip: float) -
     Returns a dict: ``torque`` N m, ``stator_current`` A peak, ``rotor_current`` A peak,
     ``input_power`` W, ``power_factor`` -, ``shaft_speed`` rad/s, ``rotor_flux`` Wb peak.
     """
-    p = par[M_P]
-    lm = par[M_LM]
-    lls = par[M_LS] - lm
-    llr = par[M_LR] - lm
-    zr = par[M_RR] / slip + 1j * we * llr
+    p = par[MP_P]
+    lm = par[MP_LM]
+    lls = par[MP_LS] - lm
+    llr = par[MP_LR] - lm
+    zr = par[MP_RR] / slip + 1j * we * llr
     zm = 1j * we * lm
-    z = par[M_RS] + 1j * we * lls + zm * zr / (zm + zr)
+    z = par[MP_RS] + 1j * we * lls + zm * zr / (zm + zr)
     i_s = v_peak / z
     i_r = -i_s * zm / (zm + zr)        # rotor current, same sign convention as the dq model
-    t = 1.5 * p * abs(i_r) ** 2 * par[M_RR] / (slip * we)
+    t = 1.5 * p * abs(i_r) ** 2 * par[MP_RR] / (slip * we)
     psi_r = lm * i_s + (llr + lm) * i_r
     return {
         "torque": t,
@@ -198,7 +198,7 @@ def breakdown_torque(par: np.ndarray, v_peak: float, wm: float) -> tuple[float, 
     Returns ``(torque N m, slip -)``."""
     from scipy.optimize import minimize_scalar
 
-    p = par[M_P]
+    p = par[MP_P]
 
     def neg(log_slip):
         s = math.exp(log_slip)
@@ -249,8 +249,8 @@ def derive_from_ratings(motor, tol: float = 1e-12) -> dict:
     def row(x):
         lm, leak, rr = np.exp(x)
         r = np.zeros(N_MOTOR_PARAMS)
-        r[M_P], r[M_RS], r[M_RR] = p, rs, rr
-        r[M_LM], r[M_LS], r[M_LR] = lm, lm * (1.0 + leak), lm * (1.0 + leak)
+        r[MP_P], r[MP_RS], r[MP_RR] = p, rs, rr
+        r[MP_LM], r[MP_LS], r[MP_LR] = lm, lm * (1.0 + leak), lm * (1.0 + leak)
         return r
 
     def residual(x):
@@ -270,10 +270,10 @@ def derive_from_ratings(motor, tol: float = 1e-12) -> dict:
     c = equivalent_circuit(r, v, we, s_r)
     return {
         "stator_resistance": rs,
-        "rotor_resistance": r[M_RR],
-        "stator_leakage_inductance": r[M_LS] - r[M_LM],
-        "rotor_leakage_inductance": r[M_LR] - r[M_LM],
-        "magnetising_inductance": r[M_LM],
+        "rotor_resistance": r[MP_RR],
+        "stator_leakage_inductance": r[MP_LS] - r[MP_LM],
+        "rotor_leakage_inductance": r[MP_LR] - r[MP_LM],
+        "magnetising_inductance": r[MP_LM],
         "rated_frequency": we / (2.0 * math.pi),
         "power_factor": c["power_factor"],
         "rotor_flux": c["rotor_flux"],

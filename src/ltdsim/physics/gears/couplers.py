@@ -139,10 +139,8 @@ def coupler_simplified(d, dd, slack, preload, damping, k1, k2, k3, v_c, by_rate,
 
     Parameters
     ----------
-    d : float or array
-        Coupler deflection from neutral, m (+ draft).
-    dd : float or array
-        Deflection rate, m/s.
+    d, dd : float or array
+        Coupler deflection from neutral (m, + draft) and its rate (m/s).
     slack : float
         Total coupling clearance ``epsilon``, m.
     preload : float

@@ -1,4 +1,4 @@
-"""Curving safety (ltdsim.results.curving, ltdsim.physics.curving) against closed forms: the
+"""Curving safety (ltdsim.results.safety, ltdsim.physics.curving) against closed forms: the
 plane curve of arcs and clothoids, coupler angles on a circle, the direction and size of
 the coupler's lateral components, the body's lateral and yaw balance, Nadal's and
 Prud'homme's limits and their published numbers."""
@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy.special import fresnel
 
 from ltdsim.physics.alignment import Alignment, alignment_of
-from ltdsim.results.curving import TrainGeometry, curving_state
+from ltdsim.results.safety import TrainGeometry, curving_state
 from ltdsim.physics.curving import (
     body_lateral_balance,
     cant_deficiency,
@@ -309,7 +309,7 @@ def test_curve_limit_fed_back_as_steady_buff_reaches_the_limit():
     middle wagons' L/V at Nadal's limit within 1 %."""
     from conftest import build
 
-    from ltdsim.results.curving import curve_limit
+    from ltdsim.results.safety import curve_limit
     from ltdsim.results.simulate import simulate
 
     radius, cant, speed = 200.0, 0.05, 12.0
@@ -332,7 +332,9 @@ def test_curve_limit_fed_back_as_steady_buff_reaches_the_limit():
     }
     sc = build(d)
     w = sc.vehicles[3]
-    lim = curve_limit(w, w, radius, cant, speed)
+    c = sc.curving
+    lim = curve_limit(w, w, radius, cant, speed, c.flange_angle, c.flange_friction,
+                      c.leading_share, sc.track.rail_spacing, sc.track.gravity, c.prudhomme_alpha)
     assert 1e5 < lim.buff_force < 5e7
     # the pusher at full notch gives max_force: set both ends to the limit force
     d["locomotives"][1]["max_force"] = lim.buff_force
@@ -354,7 +356,7 @@ def test_curve_limit_cli_prints_the_function_and_refuses_bad_input():
     from typer.testing import CliRunner
 
     from ltdsim.cli.app import app
-    from ltdsim.results.curving import curve_limit
+    from ltdsim.results.safety import curve_limit
     from ltdsim.scenario import Curving, load_scenario
 
     path = ROOT / "scenarios" / "heavy-haul.toml"
@@ -365,7 +367,8 @@ def test_curve_limit_cli_prints_the_function_and_refuses_bad_input():
     sc = load_scenario(path)
     c = Curving()
     lim = curve_limit(sc.vehicles[106], sc.vehicles[107], 300.0, 0.05, 15.0, c.flange_angle,
-                      c.flange_friction, c.leading_share, 1.5, 9.81, c.prudhomme_alpha)
+                      c.flange_friction, c.leading_share, sc.track.rail_spacing,
+                      sc.track.gravity, c.prudhomme_alpha)
     assert f"{lim.buff_force / 1e3:.0f}" in res.output
     assert f"{lim.buff_force_prudhomme / 1e3:.0f}" in res.output
     for args, key in ((["--coupler", "214", "--radius", "300"], "--coupler"),
@@ -445,7 +448,7 @@ def test_add_curving_on_records_and_angle_stops():
     import xarray as xr
     from conftest import train_dict
 
-    from ltdsim.results.curving import add_curving
+    from ltdsim.results.safety import add_curving
     from ltdsim.scenario import Scenario
     from ltdsim.results.summary import curving_summary
 

@@ -272,20 +272,21 @@ def _pair_state(front, rear, radius, cant, speed, buff, share, rail_spacing, g):
                          share, rail_spacing, g)
 
 
-def pair_l_over_v(front, rear, radius, cant, speed, buff, share=1.0, rail_spacing=1.5,
-                  g=9.81) -> np.ndarray:
+def pair_l_over_v(front, rear, radius, cant, speed, buff, share, rail_spacing,
+                  g) -> np.ndarray:
     """L/V of the worse wheel of ``front`` and of ``rear`` (two scenario vehicles),
     coupled on a circular curve of ``radius`` (m, + left) with ``cant`` (m) at ``speed``
     (m/s), with a steady buff force ``buff`` (N, >= 0, scalar or array) in every coupler:
     the front vehicle follows another like it and the rear one leads another like it.
-    Returns an array (forces, 2)."""
+    ``share`` of each coupler's lateral force on its leading wheelset (-),
+    ``rail_spacing`` (m) and gravity ``g`` (m/s^2) as in the scenario (``[curving]``,
+    ``track``). Returns an array (forces, 2)."""
     st = _pair_state(front, rear, radius, cant, speed, buff, share, rail_spacing, g)
     return st.l_over_v[:, 1:3].max(axis=-1)
 
 
-def curve_limit(front, rear, radius, cant, speed, flange_angle_deg=75.0, friction=0.5,
-                share=1.0, rail_spacing=1.5, g=9.81, prudhomme_alpha=0.85,
-                f_max=5.0e7) -> CurveLimit:
+def curve_limit(front, rear, radius, cant, speed, flange_angle_deg, friction, share,
+                rail_spacing, g, prudhomme_alpha, f_max=5.0e7) -> CurveLimit:
     """The largest steady buff force (N) the coupler between vehicles ``front`` and
     ``rear`` may carry on a circular curve (``radius`` m, ``cant`` m, ``speed`` m/s)
     before the worse wheel's L/V reaches Nadal's limit (``flange_angle_deg``,
