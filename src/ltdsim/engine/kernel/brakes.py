@@ -361,7 +361,6 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
     f0 = ab[AIR_F0]
     f1 = ab[AIR_F1]
     k2 = ab[AIR_K2]
-    k3 = ab[AIR_K3]
     yt = ab[AIR_YT]
     z0 = tr.air.index[I_PIPE]
     ny = ab.shape[1]
@@ -372,6 +371,13 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
     atol = ad.atol
     rtol = ad.rtol
     t = st["t1"]
+    # the pair's stages as rows of the air array, by their offsets in it flat
+    # (rk.pair_solution), and its weights as numbers
+    flat = ab.reshape(-1)
+    stage_at = (AIR_F0 * ny, AIR_K2 * ny, AIR_K3 * ny)
+    error_at = (AIR_F0 * ny, AIR_K2 * ny, AIR_K3 * ny, AIR_F1 * ny)
+    b_w = (B[0], B[1], B[2])
+    e_w = (E[0], E[1], E[2], E[3])
     yp = ab[AIR_YP]
     fp = ab[AIR_FP]
     for q in range(z0, ny):  # the current step becomes the previous one
@@ -407,7 +413,7 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
             else:
                 src = AIR_Y1
                 dst = AIR_F1
-                finite = pair_solution(y0, f0, k2, k3, h_try, B, z0, ny, y1)
+                finite = pair_solution(y0, flat, stage_at, h_try, b_w, z0, ny, y1)
                 if not finite:
                     break
                 ts = t_cap if hit else t + h_try
@@ -417,8 +423,8 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
         if finite:
             err = 0.0
             for q in range(z0, ny):
-                e = scaled_error(pair_error(q, f0, k2, k3, f1, h_try, E), q, y0, y1, atol,
-                                 rtol)
+                e = scaled_error(pair_error(q, flat, error_at, h_try, e_w), q, y0, y1,
+                                 atol, rtol)
                 if e > err:
                     err = e
             if not (err - err == 0.0):

@@ -170,6 +170,11 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     # the mechanical states (all of them without the fluid brake), stepped here
     ny = tr.air.index[I_PIPE] if split else y.shape[0]
     ym = y[:ny]
+    # the pair's stages in K (offsets) and its weights as numbers (rk.pair_solution)
+    stage_at = (0, ny, 2 * ny)
+    error_at = (0, ny, 2 * ny, 3 * ny)
+    b_w = (B[0], B[1], B[2])
+    e_w = (E[0], E[1], E[2], E[3])
     speed_mode = drv[D_MODE] == MODE_SPEED
     ts = drv[D_TS]
     braking = (drv[D_BSLEN] + drv[D_BPLEN] + drv[D_BCTRL]) > 0.0
@@ -253,11 +258,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         # and one for the error, the same sums in the same order. The heavy-haul train
         # over 20 s runs 6 % fewer instructions in all than with a pass per stage, and
         # a loop over the stages inside the loop over the state runs 35 % more)
-        k1 = K[0:ny]
-        k2 = K[ny:2 * ny]
-        k3 = K[2 * ny:3 * ny]
-        k4 = K[3 * ny:4 * ny]
-        finite = pair_solution(y, k1, k2, k3, h_try, B, 0, ny, ynew)
+        finite = pair_solution(y, K, stage_at, h_try, b_w, 0, ny, ynew)
         t_new = t_next if hit else t + h_try
         err = np.inf
         if finite:
@@ -267,7 +268,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
                       K[ns * ny:(ns + 1) * ny])
             err = 0.0
             for q in range(ny):
-                e = scaled_error(pair_error(q, k1, k2, k3, k4, h_try, E), q, y, ynew,
+                e = scaled_error(pair_error(q, K, error_at, h_try, e_w), q, y, ynew,
                                  err_atol, rtol)
                 if e > err:
                     err = e
@@ -292,13 +293,13 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
                         rate_last = rate
                     _relax_in_slack(j, q, qp, y, ynew, K[ns * ny:], decay, cpl)
                     continue
-                e = _exerted_error(ynew[q], pair_error(q, k1, k2, k3, k4, h_try, E),
+                e = _exerted_error(ynew[q], pair_error(q, K, error_at, h_try, e_w),
                                    abs(force[j]), cpl[j, P_F0])
                 e = scaled_error(e, q, y, ynew, atol, rtol)
                 if e > err:
                     err = e
                 if qp >= 0:
-                    e = scaled_error(pair_error(qp, k1, k2, k3, k4, h_try, E), qp, y, ynew,
+                    e = scaled_error(pair_error(qp, K, error_at, h_try, e_w), qp, y, ynew,
                                      atol, rtol)
                     if e > err:
                         err = e
