@@ -1,5 +1,8 @@
-"""The ``ltdsim`` command: one typer application whose commands validate their options,
-call the library and print what it returns, with one clear line for bad input.
+"""The ``ltdsim`` command: one module per command group (``run``, ``gear`` with
+``reduce``, ``curve``, ``analyse``, ``sweep``, ``study``), each validating its options,
+calling the library and printing what it returns, with one clear line for bad input;
+``common`` holds what they share (consoles, options, checks, tables) and ``app`` gathers
+them into one typer application.
 
 Nothing is computed here that the library does not offer. May import every other
 layer; nothing imports it.

@@ -1,0 +1,244 @@
+"""``ltdsim gear loop|impact|ratings`` and ``ltdsim reduce``: one draft gear on the rig
+(its force-deflection loop, a two-wagon impact, a table gear from catalogue ratings)
+and the simplified coupler fitted to a detailed gear.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from ltdsim.errors import ScenarioError
+from ltdsim.cli.common import (
+    CouplerOpt, PresetOpt, ScenarioOpt, check_number, check_output, console,
+    err_console, fail, gear_params, image_suffixes, plain_table, say, write_csv,
+)
+
+
+gear_app = typer.Typer(no_args_is_help=True, help="A single draft gear: loops and impacts.")
+
+
+@gear_app.command("loop")
+def gear_loop(
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 1,
+    amplitude: Annotated[float, typer.Option(help="peak gear deflection beyond slack, m")] = 0.08,
+    period: Annotated[float, typer.Option(help="period of one cycle, s")] = 10.0,
+    cycles: Annotated[int, typer.Option(help="number of cycles")] = 2,
+    buff: Annotated[bool, typer.Option(help="compress (buff) instead of stretching")] = False,
+    plot: Annotated[Path, typer.Option("--plot", "-p", help="figure file (.png, .svg, "
+                                                            ".pdf, ...)")] = Path(
+        "results/gear-loop.png"),
+) -> None:
+    """Cycle one gear through a prescribed deflection and plot its force-deflection loop."""
+    import numpy as np
+
+    from ltdsim.analysis.gears import drive_deflection, loop_energy
+
+    try:
+        check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
+        check_number("--amplitude", amplitude, 0.0, 1.0, lo_open=True, unit="m")
+        check_number("--period", period, 0.1, 3600.0, unit="s")
+        check_number("--cycles", cycles, 1, 100, whole=True)
+        params = gear_params(preset, scenario, coupler)
+    except ScenarioError as exc:
+        fail(exc)
+        return
+    t = np.linspace(0.0, cycles * period, int(cycles * period / 1e-3) + 1)
+    sign = -1.0 if buff else 1.0
+    d = sign * (0.5 * params.slack + amplitude * 0.5 * (1 - np.cos(2 * np.pi * t / period)))
+    ds = drive_deflection(params, t, d)
+    energy = loop_energy(ds) / cycles
+    console.print(f"{params.model} gear: peak force {abs(ds.force).max().item() / 1e3:.1f} kN, "
+                  f"energy absorbed per cycle {energy / 1e3:.2f} kJ")
+    from ltdsim.viz.plotting import save_gear_loop
+
+    save_gear_loop(ds, plot, title=f"{preset or scenario} ({params.model})")
+    say(f"figure written to {plot}")
+
+
+@gear_app.command("impact")
+def gear_impact(
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 1,
+    speeds: Annotated[str, typer.Option(help="impact speeds, m/s, comma separated")] = "0.5,1,1.5,2,2.5,3",
+    mass: Annotated[float, typer.Option(help="mass of each wagon, kg")] = 90000.0,
+    csv: Annotated[Optional[Path], typer.Option(help="write the table as CSV")] = None,
+) -> None:
+    """Run a wagon into a standing wagon at several speeds: peak force, travel, energy."""
+    import pandas as pd
+
+    from ltdsim.analysis.gears import impact
+
+    try:
+        check_output(csv, "--csv", (".csv",), inputs=(scenario,))
+        check_number("--mass", mass, 0.0, 1e6, lo_open=True, unit="kg")
+        params = gear_params(preset, scenario, coupler)
+        values = [float(v) for v in speeds.split(",") if v.strip()]
+        if not values:
+            raise ValueError
+        for v in values:
+            check_number("--speeds", v, 0.0, 30.0, lo_open=True, unit="m/s")
+    except ScenarioError as exc:
+        fail(exc)
+        return
+    except ValueError:
+        fail(ScenarioError("--speeds", [("", f"not a list of numbers: {speeds!r}")]))
+        return
+    rows = []
+    table = plain_table(f"Impact of two {mass / 1e3:.0f} t wagons ({params.model} gear)",
+                   ("speed [m/s]", "speed [km/h]", "peak force [kN]", "max deflection [mm]",
+                    "energy absorbed [kJ]", "share of relative KE"))
+    for v in values:
+        r = impact(params, v, mass_moving=mass, mass_standing=mass)
+        rel_ke = 0.25 * mass * v * v  # kinetic energy of the relative motion, J
+        rows.append({k: r[k] for k in ("speed_m_s", "peak_force_N", "max_deflection_m",
+                                       "energy_absorbed_J")})
+        table.add_row(f"{v:g}", f"{3.6 * v:.1f}", f"{r['peak_force_N'] / 1e3:.0f}",
+                      f"{r['max_deflection_m'] * 1e3:.1f}", f"{r['energy_absorbed_J'] / 1e3:.2f}",
+                      f"{r['energy_absorbed_J'] / rel_ke:.0%}")
+    console.print(table)
+    if csv is not None:
+        write_csv(pd.DataFrame(rows), csv)
+        say(f"table written to {csv}")
+
+
+@gear_app.command("ratings")
+def gear_ratings(
+    travel: Annotated[float, typer.Option(help="rated travel, m")],
+    force: Annotated[float, typer.Option(help="force at rated travel (impedance), N")],
+    capacity: Annotated[float, typer.Option(help="energy to close to rated travel, J")],
+    absorptivity: Annotated[float, typer.Option(help="share of the capacity absorbed, 0-1")],
+    preload: Annotated[float, typer.Option(help="force at zero deflection, N")] = 0.0,
+    series: Annotated[int, typer.Option(help="identical gears in series in the connection "
+                                             "(2: one in each wagon end)")] = 1,
+    slack: Annotated[float, typer.Option(help="coupling free play to write, m")] = 0.0,
+    toml: Annotated[Optional[Path], typer.Option(help="write the gear as TOML coupler keys")
+                    ] = None,
+    plot: Annotated[Optional[Path], typer.Option("--plot", "-p", help="loop figure")] = None,
+) -> None:
+    """A table gear from its catalogue ratings (travel, force, capacity, absorptivity),
+    checked by closing and releasing it slowly on the rig."""
+    import numpy as np
+
+    from ltdsim.analysis.gears import drive_deflection, loop_energy, table_from_ratings, table_toml
+    from ltdsim.scenario import CouplerParams
+
+    try:
+        check_output(toml, "--toml", (".toml",))
+        check_output(plot, "--plot", image_suffixes())
+        check_number("--slack", slack, 0.0, 1.0, unit="m")
+    except ScenarioError as exc:
+        fail(exc)
+        return
+    try:
+        gear = table_from_ratings(travel, force, capacity, absorptivity, preload=preload,
+                                  series=series)
+    except ValueError as exc:
+        key, _, why = str(exc).partition(" ")
+        fail(ScenarioError("ratings", [(f"--{key}", why)]))
+        return
+    params = CouplerParams(**{k: v for k, v in gear.items() if k != "exponent"})
+    t = np.linspace(0.0, 20.0, 20001)
+    # one slow closing and release of the whole connection (its gears in series)
+    d = series * gear["travel"] * 0.5 * (1 - np.cos(2 * np.pi * t / 20.0))
+    ds = drive_deflection(params, t, d, dt=1e-3)
+    half = len(t) // 2 + 1
+    closing = ds.isel(time=slice(0, half))
+    taken, absorbed = loop_energy(closing), loop_energy(ds)
+    table = plain_table("Table gear from ratings (rig: one slow closing and release)",
+                   ("quantity", "asked", "gear on the rig"))
+    table.add_row("force at travel [kN]", f"{force / 1e3:.1f}",
+                  f"{float(ds.force.max()) / 1e3:.1f}")
+    table.add_row("travel [mm]", f"{series * travel * 1e3:.1f}",
+                  f"{float(ds.deflection.max()) * 1e3:.1f}")
+    table.add_row("capacity [kJ]", f"{series * capacity / 1e3:.2f}",
+                  f"{taken / 1e3:.2f}")
+    table.add_row("absorptivity [%]", f"{absorptivity:.1%}",
+                  f"{absorbed / taken:.1%}")
+    table.add_row("loading exponent n [-]", "", f"{gear['exponent']:.3f}")
+    table.add_row("k_locked [N/m]", "", f"{gear['k_locked']:.4g}")
+    console.print(table)
+    if plot is not None:
+        from ltdsim.viz.plotting import save_gear_loop
+
+        save_gear_loop(ds, plot, title="table gear from ratings")
+        say(f"figure written to {plot}")
+    if toml is not None:
+        from ltdsim.results.io import atomic_path
+
+        note = (f"table gear from ratings: travel {travel:g} m, force {force:g} N, "
+                f"capacity {capacity:g} J, absorptivity {absorptivity:g}, preload {preload:g} N, "
+                f"{series} in series"
+                f"\nloading exponent n = {gear['exponent']:.4f} "
+                "(ltdsim.analysis.gears.table_from_ratings)")
+        with atomic_path(toml) as tmp:
+            tmp.write_text(table_toml(gear, slack=slack, comment=note))
+        say(f"gear written to {toml}")
+
+
+def reduce(
+    preset: PresetOpt = None, scenario: ScenarioOpt = None, coupler: CouplerOpt = 1,
+    rig: Annotated[str, typer.Option(help="deflection (both gears follow the same motion) "
+                                          "or force (a mass pushed by the study's forces)")
+                   ] = "deflection",
+    mass: Annotated[float, typer.Option(help="rig mass of the force rig, kg")] = 8.1e5,
+    dt: Annotated[float, typer.Option(help="rig step, s")] = 5e-4,
+    fade: Annotated[str, typer.Option(help="what the fitted k2 fades with: deflection (v_c "
+                                           "in m, the default law) or rate (v_c in m/s)")
+                    ] = "deflection",
+    workers: Annotated[int, typer.Option(help="parallel processes (-1: all cores)")] = -1,
+    maxiter: Annotated[int, typer.Option(help="generations at most")] = 1000,
+    seed: Annotated[int, typer.Option(help="random seed")] = 0,
+    plot: Annotated[Path, typer.Option("--plot", "-p", help="figure file (.png, .svg, "
+                                                            ".pdf, ...)")] = Path(
+        "results/reduction.png"),
+    toml: Annotated[Optional[Path], typer.Option(help="write the fitted coupler as TOML")] = None,
+) -> None:
+    """Fit the simplified coupler to a detailed gear under the study's chain of sines."""
+    from ltdsim.analysis.reduction import Search, reduce_gear
+
+    try:
+        check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
+        check_output(toml, "--toml", (".toml",), inputs=(scenario,))
+        check_number("--mass", mass, 0.0, 1e8, lo_open=True, unit="kg")
+        check_number("--dt", dt, 0.0, 1e-2, lo_open=True, unit="s")
+        if workers != -1:
+            check_number("--workers", workers, 1, 1024, whole=True, also="-1 (all cores)")
+        check_number("--maxiter", maxiter, 1, 1_000_000, whole=True)
+        check_number("--seed", seed, 0, 2**32 - 1, whole=True)
+        target = gear_params(preset, scenario, coupler)
+        if rig not in ("deflection", "force"):
+            raise ScenarioError("--rig", [("rig", f"must be deflection or force, got {rig!r}")])
+        if fade not in ("deflection", "rate"):
+            raise ScenarioError("--fade", [("fade", f"must be deflection or rate, got "
+                                                    f"{fade!r}")])
+    except ScenarioError as exc:
+        fail(exc)
+        return
+    with Progress(TextColumn("[bold]fitting"), BarColumn(), TextColumn("generation {task.completed}"),
+                  TextColumn("cost {task.fields[cost]:.3e} N^2"), TimeElapsedColumn(),
+                  console=err_console) as prog:
+        task = prog.add_task("fit", total=maxiter, cost=float("nan"))
+        result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers,
+                             search=Search(maxiter=maxiter, seed=seed), fade=fade,
+                             progress=lambda g, n, c: prog.update(task, completed=g, cost=c))
+    table = plain_table(f"Simplified coupler fitted to {preset or scenario}", ("parameter", "value"))
+    units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m",
+             "v_c": "m/s" if fade == "rate" else "m"}
+    for k, v in result.parameters.items():
+        table.add_row(f"{k} [{units[k]}]", f"{v:.6g}")
+    table.add_row("fit [%]", f"{result.fit_percent:.2f}")
+    table.add_row("evaluations", str(result.evaluations))
+    console.print(table)
+    from ltdsim.viz.plotting import save_reduction
+
+    save_reduction(result, plot, title=f"{preset or scenario}: detailed vs simplified")
+    say(f"figure written to {plot}")
+    if toml is not None:
+        from ltdsim.results.io import atomic_path
+
+        with atomic_path(toml) as tmp:
+            tmp.write_text(result.toml(target.slack))
+        say(f"fitted coupler written to {toml}")

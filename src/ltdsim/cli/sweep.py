@@ -1,0 +1,110 @@
+"""``ltdsim sweep``: many cases, local processes or a Dask cluster, resumable; the
+summary table and the best case's phase figures.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.markup import escape
+
+from ltdsim.errors import LtdsimError, ScenarioError
+from ltdsim.progress import Display
+from ltdsim.cli.common import (
+    case_counter, check_folder, check_scheduler, check_workers, console, err_console,
+    fail, parse_set, plain_table, say, simulate_shown, write_csv,
+)
+
+
+def sweep(
+    file: Annotated[Path, typer.Argument(help="scenario file (its named cases) or sweep file")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
+        "results/sweep"),
+    set_: Annotated[Optional[list[str]], typer.Option(
+        "--set", "-s", help="override for every case, after the case's own keys, e.g. "
+                            "solver.t_end=10 (repeat for more keys)")] = None,
+    scheduler: Annotated[Optional[str], typer.Option(help="Dask scheduler, tcp://HOST:PORT")
+                         ] = None,
+    workers: Annotated[Optional[int], typer.Option(help="local processes (default: all cores)")
+                       ] = None,
+    keep_results: Annotated[bool, typer.Option(help="also write each case's time series")] = False,
+    retry_failed: Annotated[bool, typer.Option(help="run failed cases again")] = False,
+    best_by: Annotated[str, typer.Option(help="rms_speed_error | max_tension | "
+                                              "max_compression | max_acceleration")
+                       ] = "rms_speed_error",
+    figures: Annotated[bool, typer.Option(help="phase figures (study Fig. 5-7) of the best "
+                                               "case")] = True,
+) -> None:
+    """Run many cases; resumable (finished cases are kept), local or on Dask."""
+    from ltdsim.sweep import core as sw
+
+    if best_by not in sw.CRITERIA:
+        fail(ScenarioError("--best-by", [("best-by", f"one of {', '.join(sw.CRITERIA)}")]))
+        return
+    try:
+        check_workers(workers)
+        for folder in (output, output / "cases") + ((output / "figures",) if figures else ()):
+            check_folder(folder)
+        with Display(err_console) as show:
+            checking = case_counter(show, "checking the cases")
+            spec = sw.load_sweep(file, progress=checking)
+            if set_:
+                spec = sw.with_overrides(spec, parse_set(set_), progress=checking)
+        check_scheduler(scheduler)
+        if not scheduler:  # (a cluster's workers check their own memory)
+            sw.check_sweep_memory(spec, str(file), workers)
+    except ScenarioError as exc:
+        fail(exc)
+        return
+    with Display(err_console) as show:
+        update = show.bar("sweep", len(spec.cases), "cases")
+        try:
+            summary = sw.run_sweep(spec, output, scheduler=scheduler, workers=workers,
+                                   keep_results=keep_results, retry_failed=retry_failed,
+                                   progress=lambda d, n, c: update(d),
+                                   on_compile=show.compiling, notice=show.note)
+        except (OSError, TimeoutError) as exc:
+            if not scheduler:
+                raise
+            fail(LtdsimError(f"--scheduler: the Dask scheduler at {scheduler} did not "
+                              f"take the work: {exc}"))
+            return
+        except KeyboardInterrupt:
+            err_console.print("[yellow]interrupted: finished cases are kept; run the same "
+                              "command again to resume[/]")
+            raise typer.Exit(130) from None
+    write_csv(summary, output / "summary.csv", index=True)
+    norms = sw.phase_norm_table(output, spec)
+    if not norms.empty:
+        write_csv(norms.rename(columns={"number": "coupler or vehicle (1 = lead end)"}),
+             output / "phase_norms.csv")
+    table = plain_table(f"Sweep {file} ({len(spec.cases)} cases)",
+                   ("case", "status", "RMS speed error [m/s]", "max tension [kN]",
+                    "max compression [kN]", "max |a| [m/s^2]"))
+    for case, row in summary.iterrows():
+        if row.status == "ok":
+            table.add_row(case, "ok", f"{row.rms_speed_error_m_s:.4f}",
+                          f"{row.max_tension_N / 1e3:.0f}", f"{row.max_compression_N / 1e3:.0f}",
+                          f"{row.max_abs_acceleration_m_s2:.2f}")
+        else:
+            table.add_row(case, str(row.status), str(row.get("error") or "")[:60], "", "", "")
+    console.print(table)
+    best = sw.best_case(summary, best_by)
+    if best is None and (summary.status == "ok").any():
+        say(f"no case has a value for {best_by} (no speed controller?); "
+             "choose another with --best-by")
+    if best is not None:
+        console.print(f"best case by {best_by}: [bold]{escape(best)}[/]")
+        if figures:
+            from ltdsim.viz.analysis import phase_figures
+
+            sc = spec.scenario(next(c for c in spec.cases if c.id == best))
+            files = phase_figures(simulate_shown(sc), output / "figures", sc, prefix=f"{best}_")
+            say(f"phase figures of {best} in {output / 'figures'} ({len(files)})")
+    failed = summary[summary.status != "ok"]
+    if len(failed):
+        console.print(f"[yellow]{len(failed)} case(s) did not finish; see "
+                      f"{escape(str(output))}/cases[/]")
+    say(f"summary written to {output / 'summary.csv'}")
