@@ -10,7 +10,7 @@ from ltdsim._version import __version__
 
 #: the packages and modules that only present results: editing them changes no computed
 #: number (paths relative to the package)
-PRESENTATION = ("cli/", "viz/", "study/report.py")
+PRESENTATION = ("cli/", "viz/", "study/report/")
 
 
 @cache
