@@ -1,10 +1,11 @@
 """Figure and numbers of docs/creep.md, "Against a measured case: the Eurosprinter".
 
-Run: ``python docs/creep_measured_figures.py`` (writes docs/creep_eurosprinter.png and
-prints the numbers the text quotes). The case, the measured points and CONTACT's curves
-are read from tests/physics/data/eurosprinter_creep.toml (which names their sources); ltdsim's
-curve is its Polach law with the ``eurosprinter`` preset on the Hertz ellipse of the case,
-evaluated as tests/physics/test_creep_measured.py evaluates it.
+Run: ``python docs/scripts/creep_measured_figures.py`` (writes
+docs/figures/creep_eurosprinter.png and prints the numbers the text quotes). The case, the
+measured points and CONTACT's curves are read from tests/physics/data/eurosprinter_creep.toml
+(which names their sources); ltdsim's curve is its Polach law with the ``eurosprinter``
+preset on the Hertz ellipse of the case, evaluated as tests/physics/test_creep_measured.py
+evaluates it.
 """
 
 from __future__ import annotations
@@ -23,8 +24,9 @@ import numpy as np
 from ltdsim.data import load_preset
 from ltdsim.physics.drive import creep as cr
 
-HERE = Path(__file__).resolve().parent
-DATA = tomllib.loads((HERE.parent / "tests" / "data" / "eurosprinter_creep.toml")
+ROOT = Path(__file__).resolve().parents[2]   # the repository
+FIGURES = ROOT / "docs" / "figures"
+DATA = tomllib.loads((ROOT / "tests" / "physics" / "data" / "eurosprinter_creep.toml")
                      .read_text(encoding="utf-8"))
 CASE = DATA["case"]
 Q, V = CASE["wheel_load"], CASE["speed"]                 # N, m/s
@@ -169,7 +171,7 @@ def figure():
                  f"{F11 / 1e6:.1f} MN; ltdsim mu0 {ROW[0]:.2f}, A {ROW[1]:.2f}, B {ROW[2]:.2f} "
                  f"s/m, kA {ROW[3]:.2f}, kS {ROW[4]:.2f}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(HERE / "creep_eurosprinter.png", dpi=100)
+    fig.savefig(FIGURES / "creep_eurosprinter.png", dpi=100)
 
 
 if __name__ == "__main__":

@@ -1,10 +1,10 @@
-"""Render docs/curving_s_curve.png and print the tables of docs/curving.md: the
+"""Render docs/figures/curving_s_curve.png and print the tables of docs/curving.md: the
 214-vehicle distributed-power train braking dynamically through the 300 m S curve
 (scenarios/heavy-haul-s-curve.toml) with the remote locomotives synchronised (the base)
 and still pushing (case remote-pushing); and ``ltdsim curve-limit`` for the pairs that
 matter there.
 
-    PYTHONPATH=src python docs/curving_comparison.py [--results DIR]
+    PYTHONPATH=src python docs/scripts/curving_comparison.py [--results DIR]
 
 With ``--results DIR`` the runs are saved there as netCDF and read back on the next call
 instead of run again.
@@ -23,8 +23,9 @@ from ltdsim.results.safety import curve_limit
 from ltdsim.results.io import save_result
 from ltdsim.viz.plotting import WIDTH, _save, plt
 
-HERE = Path(__file__).resolve().parent
-SCENARIO = HERE.parent / "scenarios" / "heavy-haul-s-curve.toml"
+ROOT = Path(__file__).resolve().parents[2]   # the repository
+FIGURES = ROOT / "docs" / "figures"
+SCENARIO = ROOT / "scenarios" / "heavy-haul-s-curve.toml"
 CASES = {"remotes synchronised": None, "remotes pushing": "remote-pushing"}
 GROUPS = [("wagons 3-107 (between the consists)", 2, 107),
           ("remote locomotives 108-109", 107, 109),
@@ -102,8 +103,8 @@ def main(argv=None) -> int:
     lo, hi = a2.get_ylim()
     a2.text(110.5, lo + 0.03 * (hi - lo), "remote locomotives", ha="left", va="bottom")
     fig.tight_layout()
-    _save(fig, HERE / "curving_s_curve.png")
-    print(f"figure written to {HERE / 'curving_s_curve.png'}")
+    _save(fig, FIGURES / "curving_s_curve.png")
+    print(f"figure written to {FIGURES / 'curving_s_curve.png'}")
     return 0
 
 

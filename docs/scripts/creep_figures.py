@@ -1,10 +1,11 @@
 """Figures of docs/creep.md: Polach's creep-force curves of the three rail presets, and a
 wet-rail start of one driven wheelset with and without slip control.
 
-Run: ``python docs/creep_figures.py`` (writes docs/creep_curves.png and docs/creep_start.png
-and prints the numbers the text quotes). The wheelset is the study's locomotive's
-(66.63 t static mass on 6 driven axles, ``creep_schema.Wheelset`` defaults, motor rotor
-15 kg m^2); it pulls the study's whole train (884 t dynamic mass) divided by 6 axles.
+Run: ``python docs/scripts/creep_figures.py`` (writes docs/figures/creep_curves.png and
+docs/figures/creep_start.png and prints the numbers the text quotes). The wheelset is the
+study's locomotive's (66.63 t static mass on 6 driven axles, ``ltdsim.scenario.creep.Wheelset``
+defaults, motor rotor 15 kg m^2); it pulls the study's whole train (884 t dynamic mass)
+divided by 6 axles.
 Integrated by scipy's LSODA, the same rig as tests/physics/test_creep.py.
 """
 
@@ -24,7 +25,8 @@ from ltdsim.scenario.creep import RailCondition, SlipControl, Wheelset, rail_row
 from ltdsim.scenario.creep import wheelset_row as ws_row_of
 from ltdsim.physics.drive import creep as cr
 
-HERE = Path(__file__).resolve().parent
+ROOT = Path(__file__).resolve().parents[2]   # the repository
+FIGURES = ROOT / "docs" / "figures"
 STATIC_MASS = 66630.0        # kg, the study's locomotive
 MOTOR_INERTIA = 15.0         # kg m^2, rotor (placeholder until the motor preset sets it)
 M_AXLE = 884050.0 / 6        # kg, the study's train per driven axle
@@ -69,7 +71,7 @@ def curves():
     fig.suptitle("Polach creep-force curves, wheelset of the study's locomotive "
                  f"(wheel load {Q / 1e3:.1f} kN, f11 {WS[cr.WS_F11] / 1e6:.2f} MN)")
     fig.tight_layout()
-    fig.savefig(HERE / "creep_curves.png", dpi=110)
+    fig.savefig(FIGURES / "creep_curves.png", dpi=110)
 
 
 def start(control):
@@ -127,7 +129,7 @@ def starts():
     fig.suptitle("Wet rail, one driven wheelset from rest under a constant torque demand "
                  "of 1.3 x the adhesion peak (train share 147 t)")
     fig.tight_layout()
-    fig.savefig(HERE / "creep_start.png", dpi=110)
+    fig.savefig(FIGURES / "creep_start.png", dpi=110)
     del pk_t
 
 

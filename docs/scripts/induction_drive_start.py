@@ -3,10 +3,10 @@ standstill to beyond its maximum speed at full torque demand.
 
 The shaft carries a fixed inertia that stands for the train's share of one motor (no
 wheelset, no creep: those are the wheelset's rig). Integrated with scipy's solve_ivp
-(Radau). Writes docs/induction_drive_start.png (torque, power, current, flux, voltage
+(Radau). Writes docs/figures/induction_drive_start.png (torque, power, current, flux, voltage
 against shaft speed) and prints the numbers of the rated points.
 
-    PYTHONPATH=src python docs/induction_drive_start.py [--inertia 1000] [--out PATH]
+    PYTHONPATH=src python docs/scripts/induction_drive_start.py [--inertia 1000] [--out PATH]
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from ltdsim.physics.drive import foc
 from ltdsim.physics.drive.induction import motor_row
 
 RPM = math.pi / 30.0
+FIGURES = Path(__file__).resolve().parents[1] / "figures"   # docs/figures
 
 
 def run(preset: str, inertia: float, t_end: float, demand: float):
@@ -62,7 +63,7 @@ def main(argv=None):
     ap.add_argument("--inertia", type=float, default=1000.0, help="shaft inertia, kg m^2")
     ap.add_argument("--t-end", type=float, default=70.0, help="duration, s")
     ap.add_argument("--out", type=Path,
-                    default=Path(__file__).with_name("induction_drive_start.png"))
+                    default=FIGURES / "induction_drive_start.png")
     a = ap.parse_args(argv)
     if a.inertia <= 0.0 or a.t_end <= 0.0:
         sys.exit("rig: --inertia and --t-end must be > 0")

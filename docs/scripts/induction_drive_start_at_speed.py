@@ -2,8 +2,8 @@
 at standstill, foc.drive_init) against its steady state at the speed and demand
 (foc.drive_steady, what lowering now uses). Prints the table of
 docs/induction-drive-train.md (Start at speed) and writes
-docs/induction_drive_start_at_speed.png. Run:
-PYTHONPATH=src python docs/induction_drive_start_at_speed.py"""
+docs/figures/induction_drive_start_at_speed.png. Run:
+PYTHONPATH=src python docs/scripts/induction_drive_start_at_speed.py"""
 
 from contextlib import contextmanager
 from pathlib import Path
@@ -13,11 +13,11 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from ltdsim.physics import foc  # noqa: E402
+from ltdsim.physics.drive import foc  # noqa: E402
 from ltdsim.scenario import Scenario  # noqa: E402
 from ltdsim.results.simulate import simulate  # noqa: E402
 
-HERE = Path(__file__).parent
+FIGURES = Path(__file__).resolve().parents[1] / "figures"   # docs/figures
 T_END = 2.0  # s
 
 
@@ -92,7 +92,7 @@ def main():
         a.grid(alpha=0.3)
         a.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(HERE / "induction_drive_start_at_speed.png", dpi=110)
+    fig.savefig(FIGURES / "induction_drive_start_at_speed.png", dpi=110)
 
 
 if __name__ == "__main__":

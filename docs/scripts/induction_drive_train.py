@@ -1,9 +1,9 @@
 """The study's train with the induction drive against the traction-curve run: coupler
 forces per phase (the table in docs/induction-drive-train.md) and the figure
-docs/induction_drive_train.png; and the heavy-haul wet start's figure
-docs/induction_wet_start.png; and the stiff drive (scenarios/paper-induction-stiff.toml)
-against the curve: its table and docs/induction_drive_stiff.png. Run:
-PYTHONPATH=src python docs/induction_drive_train.py [study] [wet] [stiff] (none: all)"""
+docs/figures/induction_drive_train.png; and the heavy-haul wet start's figure
+docs/figures/induction_wet_start.png; and the stiff drive (scenarios/paper-induction-stiff.toml)
+against the curve: its table and docs/figures/induction_drive_stiff.png. Run:
+PYTHONPATH=src python docs/scripts/induction_drive_train.py [study] [wet] [stiff] (none: all)"""
 
 from pathlib import Path
 
@@ -18,8 +18,8 @@ import numpy as np  # noqa: E402
 from ltdsim.scenario import load_scenario  # noqa: E402
 from ltdsim.results.simulate import simulate  # noqa: E402
 
-HERE = Path(__file__).parent
-ROOT = HERE.parent
+ROOT = Path(__file__).resolve().parents[2]   # the repository
+FIGURES = ROOT / "docs" / "figures"
 
 
 def _rms(x):
@@ -74,7 +74,7 @@ def study_comparison():
         a.legend(fontsize=8, loc="upper right")
     ax[0].set_title("The study's train (case LHHL): traction curve against the induction drive, dry rail")
     fig.tight_layout()
-    fig.savefig(HERE / "induction_drive_train.png", dpi=110)
+    fig.savefig(FIGURES / "induction_drive_train.png", dpi=110)
 
 
 def wet_start():
@@ -97,7 +97,7 @@ def wet_start():
     ax[3].legend(fontsize=8)
     ax[0].set_title("Heavy-haul train: wet-rail start, lead consist on the induction drive")
     fig.tight_layout()
-    fig.savefig(HERE / "induction_wet_start.png", dpi=110)
+    fig.savefig(FIGURES / "induction_wet_start.png", dpi=110)
     sel = (t >= 10) & (t <= 60)
     print(f"wet start 10-60 s: lead consist force mean {ds.locomotive_force.values[sel, 0].mean() / 1e3:.0f} kN, "
           f"per axle {ds.locomotive_force.values[sel, 0].mean() / 12e3:.1f} kN; creep "
@@ -162,7 +162,7 @@ def stiff_comparison():
     ax[0].set_title("The study's train (case LHHL): traction curve against a stiff induction "
                     "drive, dry rail", fontsize=10)
     fig.tight_layout()
-    fig.savefig(HERE / "induction_drive_stiff.png", dpi=110)
+    fig.savefig(FIGURES / "induction_drive_stiff.png", dpi=110)
 
 
 if __name__ == "__main__":

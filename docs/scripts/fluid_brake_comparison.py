@@ -1,4 +1,4 @@
-"""Render docs/fluid_brake_comparison.png and print the table of
+"""Render docs/figures/fluid_brake_comparison.png and print the table of
 docs/fluid-brake-comparison.md: the heavy-haul train's emergency stop from 18 m/s with
 the lumped brake (scenarios/heavy-haul.toml, case emergency) and with the fluid brake
 (scenarios/heavy-haul-fluid.toml, cases emergency-remote and emergency-lead), with the
@@ -6,7 +6,7 @@ remote consist venting and from the lead alone; and two lumped runs given the fl
 brake's emergency cylinder force and fill time, which say where the differences come
 from. Every run 90 s, recorded every 0.05 s.
 
-    PYTHONPATH=src python docs/fluid_brake_comparison.py [--results DIR]
+    PYTHONPATH=src python docs/scripts/fluid_brake_comparison.py [--results DIR]
 
 With ``--results DIR`` the runs are saved there as netCDF and read back on the next call
 instead of run again.
@@ -26,8 +26,9 @@ from ltdsim.results.io import save_result
 from ltdsim.viz.plotting import WIDTH, _save, plt
 from ltdsim.results.summary import fluid_brake_summary, stopping
 
-HERE = Path(__file__).resolve().parent
-SCEN = HERE.parent / "scenarios"
+ROOT = Path(__file__).resolve().parents[2]   # the repository
+FIGURES = ROOT / "docs" / "figures"
+SCEN = ROOT / "scenarios"
 COMMON = {"solver.t_end": 90.0, "solver.output_interval": 0.05}
 
 
@@ -165,8 +166,8 @@ def main(argv=None) -> None:
     ax.legend(loc="upper right", fontsize=8.0)
     fig.suptitle("heavy-haul train (214 vehicles), emergency from 18 m/s: lumped against "
                  "fluid brake")
-    _save(fig, HERE / "fluid_brake_comparison.png")
-    print(f"figure written to {HERE / 'fluid_brake_comparison.png'}")
+    _save(fig, FIGURES / "fluid_brake_comparison.png")
+    print(f"figure written to {FIGURES / 'fluid_brake_comparison.png'}")
 
 
 if __name__ == "__main__":

@@ -1,10 +1,10 @@
-"""Render docs/polymer_loops.png: force-deflection loops of the polymer-heavy-haul preset.
+"""Render docs/figures/polymer_loops.png: force-deflection loops of the polymer-heavy-haul preset.
 
 The gear's deflection is driven 0 -> travel -> 0 at a constant closing speed (three
 speeds), its internal force integrated by the classical Runge-Kutta method with the
 law of ltdsim.physics.gears.polymer; the static curves (speed 0) are drawn for reference.
 
-    PYTHONPATH=src python docs/polymer_loops.py
+    PYTHONPATH=src python docs/scripts/polymer_loops.py
 """
 
 from __future__ import annotations
@@ -22,6 +22,7 @@ KEYS = ("preload", "initial_stiffness", "force_at_travel", "travel", "exponent",
 SPEEDS = (0.02, 0.5, 2.0)       # m/s, closing and opening speed of each loop
 TRACKING_TIME = 4e-4            # s, the kernel's default (4 dt) at dt = 1e-4 s
 STEPS = 4000                    # RK4 steps per leg
+FIGURES = Path(__file__).resolve().parents[1] / "figures"   # docs/figures
 
 
 def loop(p, speed):
@@ -48,7 +49,7 @@ def loop(p, speed):
     return np.array(xs), np.array(fs)
 
 
-def main(path=Path(__file__).with_name("polymer_loops.png")):
+def main(path=FIGURES / "polymer_loops.png"):
     p = {k: v for k, v in load_preset("gears", "polymer-heavy-haul").items() if k != "model"}
     q = tuple(p[k] for k in KEYS)
     fig, ax = plt.subplots(figsize=(0.62 * WIDTH, 4.6), constrained_layout=True)
