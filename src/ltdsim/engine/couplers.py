@@ -209,6 +209,11 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
 
 
 # ------------------------------------------------------------------ registry
+def _no_lag(c) -> None:
+    """The lag of a model without internal states: none."""
+    return None
+
+
 @dataclass(frozen=True)
 class CouplerModel:
     """One coupler model's entry in the registry (see the module text).
@@ -246,6 +251,11 @@ class CouplerModel:
     #: (m beyond the slack, + draft), N/m, for a model whose force is a function of the
     #: deflection and its rate alone; None otherwise (:func:`operating_stiffness`)
     tangent: Callable[[object, float], float] | None = None
+    #: ``lag(c)``: the fastest time constant of its internal states, ``(what, seconds)``
+    #: (``what`` names the key or keys it comes from), None for a model without; the
+    #: lowered row's relaxation rate ``rate`` is its inverse (1/s), and the fixed-step
+    #: stability check bounds the step by it (:func:`ltdsim.engine.preflight.step_limit`)
+    lag: Callable[[object], tuple[str, float] | None] = _no_lag
 
     @property
     def code(self) -> int:
@@ -406,6 +416,12 @@ def _polymer_unloading(c, x, branch):
     return c.return_ratio * f
 
 
+def _tracking(c) -> tuple[str, float]:
+    """A hysteretic gear's lag: its internal force tracks its curves within
+    ``tracking_time`` (s)."""
+    return ("tracking_time", c.tracking_time)
+
+
 #: the registry, in code order (:data:`MODEL_NAMES`)
 MODELS: tuple[CouplerModel, ...] = (
     CouplerModel("linear", LINEAR_COLUMNS, _lower_linear,
@@ -421,13 +437,13 @@ MODELS: tuple[CouplerModel, ...] = (
                  at_rest=_simplified_at_rest, tangent=_simplified_tangent),
     CouplerModel("friction_wedge", WEDGE_COLUMNS, _lower_wedge, _wedge_stiffest,
                  states=_wedge_states, released=_wedge_released, max_states=3,
-                 hysteretic=True, at_rest=_wedge_unloading),
+                 hysteretic=True, at_rest=_wedge_unloading, lag=_tracking),
     # (a table gear closes solid at its last point when it states no travel)
     CouplerModel("table", TABLE_COLUMNS, _lower_table,
                  lambda c: c.k_locked + max(_curve_slope(c.loading),
                                             _curve_slope(c.unloading)) + c.solid_stiffness,
                  states=lambda c: ("force",), released=lambda c: float(c.loading[0][1]),
-                 max_states=1, hysteretic=True,
+                 max_states=1, hysteretic=True, lag=_tracking,
                  at_rest=lambda c, x, branch: np.interp(
                      x, *np.asarray(c.unloading, dtype=float).T)),
     # polymer: one internal state (its force); released at its preload; linearised at
@@ -435,7 +451,7 @@ MODELS: tuple[CouplerModel, ...] = (
     CouplerModel("polymer", POLYMER_COLUMNS, _lower_polymer, states=lambda c: ("force",),
                  released=lambda c: float(c.preload),
                  stiffness=_polymer_stiffness, stiffest=_polymer_stiffest, max_states=1,
-                 hysteretic=True, at_rest=_polymer_unloading),
+                 hysteretic=True, at_rest=_polymer_unloading, lag=_tracking),
 )
 REGISTRY: dict[str, CouplerModel] = {m.name: m for m in MODELS}
 assert tuple(REGISTRY) == MODEL_NAMES, "MODELS must follow MODEL_NAMES (their codes)"
@@ -476,9 +492,11 @@ def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
     row[P_INVG] = 1.0 / c.gears
     states = entry.states(c)
     y0: tuple[float, ...] = ()
+    lag = entry.lag(c)
+    if lag is not None:
+        row[P_RATE] = 1.0 / lag[1]
     if states:
         row[P_ZOFF] = state_offset
-        row[P_RATE] = 1.0 / c.tracking_time
         row[P_F0] = entry.released(c)
         # the internal force starts released, on the loading curve at 0; the others at 0
         y0 = (row[P_F0],) + (0.0,) * (len(states) - 1)
@@ -549,6 +567,12 @@ def stored_energy(c, d: float, points: int = 201) -> float:
     return c.gears * energy
 
 
+def fastest_lag(c) -> tuple[str, float] | None:
+    """The fastest time constant of coupler ``c``'s internal states, ``(what, seconds)``,
+    None for a model without (:attr:`CouplerModel.lag`)."""
+    return REGISTRY[c.model].lag(c)
+
+
 def stiffest(c) -> float:
     """Tangent stiffness of coupling ``c`` at its stiffest, N/m, solid closure included:
     one gear's over its ``gears`` in series (the fixed-step stability check)."""
@@ -564,6 +588,8 @@ def _check_registry() -> None:
             raise AssertionError(f"{m.name}: own columns repeat common ones")
         if m.at_rest is None:
             raise AssertionError(f"{m.name}: no force at rest (at_rest: stored_energy)")
+        if m.hysteretic and m.lag is _no_lag:
+            raise AssertionError(f"{m.name}: a hysteretic gear tracks its curves with a lag")
 
 
 _check_registry()

@@ -188,6 +188,8 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
     """The largest stable step of ``scenario``'s fixed-step method (None for the adaptive
     bs23, whose error control keeps its steps stable). ``couplers``: the merged parameters
     of every coupler, if at hand (else ``scenario.coupler(j)``)."""
+    from ltdsim.engine.couplers import fastest_lag
+
     sv = scenario.solver
     if sv.adaptive:
         return None
@@ -198,8 +200,9 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
     for j, c in enumerate(couplers):
         ks.append(stiffest(c))
         cs.append(c.damping)
-        if getattr(c, "tracking_time", None) is not None:  # (gears with internal states)
-            lags.append((f"tracking_time of coupler {j + 1}", c.tracking_time))
+        lag = fastest_lag(c)  # (models with internal states)
+        if lag is not None:
+            lags.append((f"{lag[0]} of coupler {j + 1}", lag[1]))
     pipe = 0.0
     if any(v.brake is not None for v in scenario.vehicles):
         b = scenario.brake
