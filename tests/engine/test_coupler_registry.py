@@ -37,6 +37,7 @@ FULL = {
     "table": {**load_preset("gears", "mt-2"), "tracking_time": 3e-3, "solid_stiffness": 5e9},
     "polymer": {**load_preset("gears", "polymer-heavy-haul"), "tracking_time": 1e-3,
                 "solid_stiffness": 6e9},
+    "cushion": {**load_preset("gears", "eoc-15"), "solid_stiffness": 7e9},
 }
 S_TABLE = {"velocity": [0.0, 1.0, 4.0], "deflection": [0.0, 0.05],
            "values": [[1.0, 1.1], [0.9, 1.0], [0.8, 0.85]]}

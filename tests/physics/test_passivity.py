@@ -42,6 +42,8 @@ GEARS = {
     "table (MT-2)": {"preset": "mt-2", "slack": SLACK},
     "table (MT-2), two gears": {"preset": "mt-2", "slack": SLACK, "gears": 2},
     "polymer": {"preset": "polymer-heavy-haul", "slack": SLACK},
+    "cushioning unit": {"preset": "eoc-15", "slack": SLACK},
+    "cushioning unit, two in series": {"preset": "eoc-15", "slack": SLACK, "gears": 2},
 }
 STATELESS = ("linear", "simplified")
 

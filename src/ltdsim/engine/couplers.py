@@ -35,7 +35,13 @@ import numpy as np
 from numba import njit
 
 from ltdsim.engine.layout import append_table, layout
-from ltdsim.physics.gears.couplers import gear_deflection, linear_force, simplified_force
+from ltdsim.physics.gears.couplers import (
+    gear_deflection,
+    linear_force,
+    simplified_force,
+    solid_closure,
+)
+from ltdsim.physics.gears.cushion import cushion_force, force_at_rest, stroke_rate
 from ltdsim.physics.gears.draftgear import (
     gear_force,
     plate_rate,
@@ -102,9 +108,16 @@ POLYMER_COLUMNS = HYSTERETIC_COLUMNS + ("preload", "initial_stiffness", "force_a
 (_, POL_P, POL_K0, POL_FX, POL_N, POL_R, POL_AL, POL_AU, POL_VR) = layout(
     *POLYMER_COLUMNS, start=N_COMMON)
 
+#: cushion (physics.gears.cushion): preload N, return spring N/m, oil column N/m, the
+#: orifice's laminar N s/m and turbulent N s^2/m^2 resistance (its stroke is the common
+#: travel, its piston's rate the common rate)
+CUSHION_COLUMNS = ("preload", "spring_stiffness", "oil_stiffness", "orifice_linear",
+                   "orifice_quadratic")
+(CU_P, CU_KS, CU_KH, CU_CL, CU_CQ) = layout(*CUSHION_COLUMNS, start=N_COMMON)
+
 #: model codes (the kernel's ``model`` array); the order of :data:`MODELS`
-MODEL_NAMES = ("linear", "simplified", "friction_wedge", "table", "polymer")
-(M_LINEAR, M_SIMPLIFIED, M_WEDGE, M_TABLE, M_POLYMER) = layout(*MODEL_NAMES)
+MODEL_NAMES = ("linear", "simplified", "friction_wedge", "table", "polymer", "cushion")
+(M_LINEAR, M_SIMPLIFIED, M_WEDGE, M_TABLE, M_POLYMER, M_CUSHION) = layout(*MODEL_NAMES)
 
 
 # ------------------------------------------------------------------ compiled dispatch
@@ -181,6 +194,20 @@ def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
 
 
 @njit(cache=True, inline="always")
+def _cushion(j, d, dd, slack, y, zo, dy, dzo, cpl):
+    """Force (N, + tension) of cushioning unit ``j`` at its own deflection ``d`` (m), rate
+    ``dd`` (m/s) and share of the slack ``slack`` (m) (:func:`coupler_force`); its
+    piston's stroke (m) at ``y[zo]``, its rate to ``dy[dzo]``. In the slack the unit is
+    unloaded and its piston returns."""
+    x, sgn, in_slack = gear_deflection(d, dd, slack)
+    s = y[zo]
+    f = cushion_force(x, s, cpl[j, CU_KH])
+    dy[dzo] = stroke_rate(f, s, cpl[j, CU_P], cpl[j, CU_KS], cpl[j, CU_CL], cpl[j, CU_CQ],
+                          cpl[j, P_TRAVEL], cpl[j, P_RATE])
+    return sgn * (f + solid_closure(x, cpl[j, P_TRAVEL], cpl[j, P_KSOLID]))
+
+
+@njit(cache=True, inline="always")
 def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
     """Force of coupler ``j`` (N, + tension) at deflection ``d`` (m) and rate ``dd``
     (m/s), by its model code ``model``. A gear with internal states reads them at
@@ -205,6 +232,8 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
         return linear_force(d, dd, slack, cpl[j, LIN_STIFF], cpl[j, LIN_DAMP],
                             cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
     zo = int(cpl[j, P_ZOFF])
+    if model == M_CUSHION:
+        return _cushion(j, d, dd, slack, y, z0 + zo, dy, dz0 + zo, cpl)
     return _gear(j, model, d, dd, slack, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
 
 
@@ -416,6 +445,17 @@ def _polymer_unloading(c, x, branch):
     return c.return_ratio * f
 
 
+def _lower_cushion(c, tables) -> dict:
+    return {k: getattr(c, k) for k in CUSHION_COLUMNS}
+
+
+def _cushion_lag(c) -> tuple[str, float]:
+    """A cushioning unit's fastest own time constant, its piston's near the stops: the
+    laminar orifice against the oil column and the return spring, s."""
+    return ("orifice_linear / (oil_stiffness + spring_stiffness)",
+            c.orifice_linear / (c.oil_stiffness + c.spring_stiffness))
+
+
 def _tracking(c) -> tuple[str, float]:
     """A hysteretic gear's lag: its internal force tracks its curves within
     ``tracking_time`` (s)."""
@@ -452,6 +492,14 @@ MODELS: tuple[CouplerModel, ...] = (
                  released=lambda c: float(c.preload),
                  stiffness=_polymer_stiffness, stiffest=_polymer_stiffest, max_states=1,
                  hysteretic=True, at_rest=_polymer_unloading, lag=_tracking),
+    # cushion: one internal state, its piston's stroke (m); rigid below its preload, so
+    # linearised on its oil column
+    CouplerModel("cushion", CUSHION_COLUMNS, _lower_cushion,
+                 stiffest=lambda c: c.oil_stiffness + _solid(c),
+                 states=lambda c: ("x",), max_states=1,
+                 stiffness=lambda c, branch: c.oil_stiffness, lag=_cushion_lag,
+                 at_rest=lambda c, x, branch: force_at_rest(
+                     x, c.preload, c.spring_stiffness, c.oil_stiffness, c.travel)),
 )
 REGISTRY: dict[str, CouplerModel] = {m.name: m for m in MODELS}
 assert tuple(REGISTRY) == MODEL_NAMES, "MODELS must follow MODEL_NAMES (their codes)"

@@ -274,11 +274,48 @@ class PolymerGear(_HystereticGear):
                              "or unloading would lie above loading at speed")
 
 
+class CushionUnit(_CouplerBase):
+    """End-of-car cushioning unit: a hydraulic piston behind a stiff oil column, stroking
+    through an orifice against a preloaded return spring, rigid below its preload
+    (physics.gears.cushion, docs/draftgear.md). ``travel`` is its stroke."""
+
+    _required = ("preload", "spring_stiffness", "oil_stiffness", "orifice_linear",
+                 "orifice_quadratic", "travel")
+
+    model: Literal["cushion"] = Field("cushion", description="coupler model")
+    preload: float | None = Field(None, ge=0.0, le=1e7,
+                                  description="force the piston starts to stroke at, N")
+    spring_stiffness: float | None = Field(None, ge=0.0, le=1e9,
+                                           description="stiffness of the return spring, "
+                                                       "N/m")
+    oil_stiffness: float | None = Field(None, gt=0.0, le=1e11,
+                                        description="stiffness of the oil column between "
+                                                    "follower and piston, N/m")
+    orifice_linear: float | None = Field(None, gt=0.0, le=1e9,
+                                         description="the orifice's laminar resistance, "
+                                                     "N s/m")
+    orifice_quadratic: float | None = Field(None, ge=0.0, le=1e10,
+                                            description="the orifice's turbulent "
+                                                        "resistance, N s^2/m^2")
+
+    @property
+    def damping(self) -> float:
+        """Viscous damping in parallel with the coupling, N s/m: none (the orifice acts in
+        series with the oil column)."""
+        return 0.0
+
+    def _check(self) -> None:
+        if self.spring_stiffness >= self.oil_stiffness:
+            raise ValueError("spring_stiffness must be below oil_stiffness (the return "
+                             "spring is soft against the oil column)")
+
+
 #: the coupler models' schema classes by ``model`` name (the order of
 #: ``ltdsim.engine.couplers.MODEL_NAMES``)
 COUPLER_CLASSES: dict[str, type[_CouplerBase]] = {
     "linear": LinearCoupler, "simplified": SimplifiedCoupler,
-    "friction_wedge": FrictionWedgeGear, "table": TableGear, "polymer": PolymerGear}
+    "friction_wedge": FrictionWedgeGear, "table": TableGear, "polymer": PolymerGear,
+    "cushion": CushionUnit}
 
 
 class _UnknownCoupler(_Strict):
