@@ -18,7 +18,7 @@ from ltdsim.engine.kernel.structs import (
     AIR_F0, AIR_F1, AIR_FP, AIR_K2, AIR_K3, AIR_Y0, AIR_Y1, AIR_YP, AIR_YT,
 )
 from ltdsim.engine.kernel.rk import (
-    MIN_STEP, pair_error, pair_solution, scaled_error, step_accepted, step_rejected,
+    MIN_STEP, max_scaled_error, pair_solution, step_accepted, step_rejected,
 )
 from ltdsim.engine.kernel.tables import _interp_at
 from ltdsim.engine.layout import (
@@ -372,12 +372,10 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
     rtol = ad.rtol
     t = st["t1"]
     # the pair's stages as rows of the air array, by their offsets in it flat
-    # (rk.pair_solution), and its weights as numbers
+    # (rk.pair_solution)
     flat = ab.reshape(-1)
     stage_at = (AIR_F0 * ny, AIR_K2 * ny, AIR_K3 * ny)
     error_at = (AIR_F0 * ny, AIR_K2 * ny, AIR_K3 * ny, AIR_F1 * ny)
-    b_w = (B[0], B[1], B[2])
-    e_w = (E[0], E[1], E[2], E[3])
     yp = ab[AIR_YP]
     fp = ab[AIR_FP]
     for q in range(z0, ny):  # the current step becomes the previous one
@@ -413,7 +411,7 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
             else:
                 src = AIR_Y1
                 dst = AIR_F1
-                finite = pair_solution(y0, flat, stage_at, h_try, b_w, z0, ny, y1)
+                finite = pair_solution(y0, flat, stage_at, h_try, B, z0, ny, y1)
                 if not finite:
                     break
                 ts = t_cap if hit else t + h_try
@@ -421,12 +419,7 @@ def _air_step(t_cap, events, n_events, tr, w, ad):
         t_new = t_cap if hit else t + h_try
         err = np.inf
         if finite:
-            err = 0.0
-            for q in range(z0, ny):
-                e = scaled_error(pair_error(q, flat, error_at, h_try, e_w), q, y0, y1,
-                                 atol, rtol)
-                if e > err:
-                    err = e
+            err = max_scaled_error(flat, error_at, h_try, E, z0, ny, y0, y1, atol, rtol)
             if not (err - err == 0.0):
                 err = np.inf
         if err <= 1.0:
