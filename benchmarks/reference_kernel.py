@@ -102,7 +102,7 @@ def inputs(sc) -> dict:
         max_power=float(t.max_power if consists[0].max_power is None else consists[0].max_power),
         adhesion_mass=float(t.adhesion_mass if consists[0].adhesion_mass is None
                             else consists[0].adhesion_mass),
-        fade=float(t.dynamic_brake_fade),
+        fade=float(t.brake_fade),
     )
 
 
@@ -169,8 +169,8 @@ def run(y, dt, n_steps, record_every, inv_m, weight_mass, davis_a, davis_b, davi
             v_loco = ys[n + loco]
             lim = traction_max(v_loco, max_force, max_power, adhesion_mass, g)
             traction = min(max(demand, -lim), lim)
-            if traction < 0.0 and fade > 0.0:  # dynamic braking fades at low speed
-                traction *= min(max(v_loco / fade, 0.0), 1.0)
+            if traction < 0.0:  # dynamic braking fades near rest, against the motion
+                traction *= min(max(v_loco / fade, -1.0), 1.0)
             # couplers: deflection + draft, force + tension
             for j in range(n - 1):
                 force[j] = simplified_force(ys[j] - ys[j + 1], ys[n + j] - ys[n + j + 1],

@@ -6,10 +6,10 @@ import copy
 from pathlib import Path
 
 import pytest
+from reference_rhs import make_rhs
 from scipy.integrate import solve_ivp
 
 from ltdsim import Scenario
-from reference_rhs import make_rhs
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "scenarios" / "paper.toml"
@@ -79,6 +79,30 @@ def single_braked_wagon(v0, friction, t_end, method="ode3", dt=1e-3):
     d["brake"] = {"mode": "ecp", "apply_time_constant": 1e-3}
     d["driver"]["brake_profile"] = [[0.0, 1.0]]
     return d
+
+
+#: a 90 t wagon's brake for the fluid brake's trains (cylinder force N, rigging -, shoes,
+#: friction -)
+WAGON = {"cylinder_force": 40500.0, "rigging_ratio": 2.6, "shoes": 8, "friction": 0.3}
+
+
+def fluid_train(n_wagons, commands, *, valve="uic-g", t_end=5.0, out=0.01, method="bs23",
+                dt=1e-4, speed=20.0, rtol=1e-4, atol=1e-5, cells=2, brake=None):
+    """A loco and ``n_wagons`` 14.4 m braked wagons (90 t), couplers linear, power off."""
+    vehicles = [{"name": "loco", "mass": 9e4, "length": 19.0, "powered": True}]
+    vehicles.append({"name": "wagon", "count": n_wagons, "mass": 9e4, "length": 14.4,
+                     "brake": dict(WAGON, **(brake or {}))})
+    return {
+        "solver": {"method": method, "dt": dt, "t_end": t_end, "output_interval": out,
+                   "rtol": rtol, "atol": atol, "max_step": 0.05},
+        "vehicles": vehicles,
+        "couplers": {"default": {"model": "linear", "stiffness": 5e7, "damping": 2e5}},
+        "traction": {"max_force": 3e5, "max_power": 6.4e6, "adhesion_mass": 9e4},
+        "brake": {"model": "fluid", "fluid": {"valve": valve, "cells_per_vehicle": cells}},
+        "driver": {"mode": "force", "force_profile": [[0.0, 0.0]],
+                   "brake_commands": commands},
+        "initial": {"speed": speed},
+    }
 
 
 def short_paper(tmp_path, keep=("LHHL", "HHHH")):

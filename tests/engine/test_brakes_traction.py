@@ -150,8 +150,10 @@ def test_notch_demands_that_fraction_of_the_traction_curve(notch, fade):
     ds = ltdsim.simulate(build(d))
     v = ds.velocity.values[:, 0]
     lim = traction_limit(v, 3e5, 2.5e6, 9e4, 9.81)
-    if fade:  # the dynamic brake dies away linearly below the fade speed
-        lim = lim * np.clip(v / fade, 0.0, 1.0)
+    if notch < 0:  # the dynamic brake dies away linearly below the fade speed, or
+        # without one within traction.standstill_speed (0.01 m/s) of rest
+        lim = lim * np.clip(v / (fade or 0.01), -1.0, 1.0)
+    if fade:
         assert v[-1] < 0.5 * fade
     assert_allclose(ds.traction_force.values, notch / 8.0 * lim, rtol=1e-12, atol=1e-9)
     assert np.ptp(lim) > 0.1 * lim.max()  # the curve's limits did act over the run

@@ -16,15 +16,14 @@ from importlib import resources
 
 import numpy as np
 import pytest
+from conftest import WAGON, build, fluid_train
 
 import ltdsim
 from ltdsim.engine import kernel
-from ltdsim.errors import ScenarioError
 from ltdsim.engine.lowering import lower
+from ltdsim.errors import ScenarioError
 from ltdsim.physics.air import brakevalves as bv
 from ltdsim.results.summary import PIPE_DROP
-
-from conftest import build
 
 #: the module (``ltdsim.results.simulate`` is also the function the package exports)
 sim = importlib.import_module("ltdsim.engine.run")
@@ -35,28 +34,6 @@ UIC_540_EMERGENCY = 250.0
 #: isothermal speed of sound at 20 C, sqrt(R T), m/s: the pipe cannot carry a small
 #: pressure wave faster (a vent's flow adds at most its own speed, towards the vent)
 C_ISOTHERMAL = math.sqrt(287.05 * 293.15)
-WAGON = {"cylinder_force": 40500.0, "rigging_ratio": 2.6, "shoes": 8, "friction": 0.3}
-
-
-def fluid_train(n_wagons, commands, *, valve="uic-g", t_end=5.0, out=0.01, method="bs23",
-                dt=1e-4, speed=20.0, rtol=1e-4, atol=1e-5, cells=2, brake=None):
-    """A loco and ``n_wagons`` 14.4 m braked wagons (90 t), couplers linear, power off."""
-    vehicles = [{"name": "loco", "mass": 9e4, "length": 19.0, "powered": True}]
-    vehicles.append({"name": "wagon", "count": n_wagons, "mass": 9e4, "length": 14.4,
-                     "brake": dict(WAGON, **(brake or {}))})
-    return {
-        "solver": {"method": method, "dt": dt, "t_end": t_end, "output_interval": out,
-                   "rtol": rtol, "atol": atol, "max_step": 0.05},
-        "vehicles": vehicles,
-        "couplers": {"default": {"model": "linear", "stiffness": 5e7, "damping": 2e5}},
-        "traction": {"max_force": 3e5, "max_power": 6.4e6, "adhesion_mass": 9e4},
-        "brake": {"model": "fluid", "fluid": {"valve": valve, "cells_per_vehicle": cells}},
-        "driver": {"mode": "force", "force_profile": [[0.0, 0.0]],
-                   "brake_commands": commands},
-        "initial": {"speed": speed},
-    }
-
-
 def arrivals(ds, drop=PIPE_DROP):
     """Time (s) at which each vehicle's pipe pressure first lies ``drop`` Pa (default
     ltdsim's one definition of the signal's arrival, 0.3 bar) below its

@@ -147,6 +147,12 @@ def test_every_vehicle_traction_driver_and_brake_key_lands_in_its_named_column()
     assert trac[col(T, "max_decel")] == pytest.approx(TRACTION["max_decel"] * ratio, rel=1e-15)
     assert trac[col(T, "feedforward")] == 1.0
     placed[Traction] |= set(TRACTION)
+    # without a fade speed, the standstill band is the dynamic brake's fade speed
+    plain = {k: v for k, v in TRACTION.items() if k != "dynamic_brake_fade"}
+    d0 = scenario_dict()
+    d0["traction"] = dict(plain, standstill_speed=0.037)
+    assert lower(build(d0)).cons[0, col(K, "dynamic_brake_fade")] == 0.037
+    placed[Traction] |= {"standstill_speed"}
     placed[PID] |= {"acceleration_of"}
 
     # driver: the speed profile, PID and brake control (speed_profile, pid and

@@ -28,6 +28,7 @@ from ltdsim.engine.layout import (
 )
 from ltdsim.physics.air.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
+from ltdsim.physics.drive.traction import braking_share
 from ltdsim.physics.resistance import PURE_SIGN
 from ltdsim.scenario import Scenario
 
@@ -219,7 +220,7 @@ def lower(s: Scenario) -> Lowered:
         row = cons[k]
         row[[K_FMAX, K_PMAX, K_MADH]] = pick("max_force"), pick("max_power"), pick("adhesion_mass")
         row[K_TAU] = pick("time_constant")
-        row[K_DBFADE] = t.dynamic_brake_fade
+        row[K_DBFADE] = t.brake_fade
         row[K_Z] = -1.0
         row[K_VEH] = loco.vehicles[0]
         if (loco.drive or t.drive) == "induction":
@@ -438,7 +439,7 @@ def _drive_rows(s: Scenario, loco, k: int, z: int) -> dict:
     to_rms = 1.0 / np.sqrt(2.0) / (np.sqrt(3.0) if motor.connection == "delta" else 1.0)
     misc = np.array([float(n_motors), ws.gear_efficiency, motor.dc_link_voltage,
                      1.0 if t.creep.slip_control.enabled else 0.0, to_rms,
-                     float(t.motor.per_locomotive), t.dynamic_brake_fade])
+                     float(t.motor.per_locomotive), t.brake_fade])
     return {"cons": k, "z": z, "motor": m, "ctrl": c, "ws": wrow, "rail": rail,
             "slip": slip, "misc": misc, "y0": y0}
 
@@ -489,14 +490,13 @@ def _initial_torque_demand(dem: float, v0: float, om0: float, limit: float,
     at vehicle speed ``v0`` (m/s), wheelset speed ``om0`` (rad/s) and the slip
     controller's limit ``limit`` (N m at the wheel), by the law of ``kernel._drive_axle``
     (docs/induction-drive-train.md, steps 2-4): a braking demand faded below
-    ``dynamic_brake_fade``; the wheel torque ``dem r / motors``; the slip controller
+    ``Traction.brake_fade`` (:func:`ltdsim.physics.drive.traction.braking_share`); the wheel torque ``dem r / motors``; the slip controller
     (:func:`ltdsim.physics.drive.creep.slip_control`, mirrored in braking); over ``G eta``
     (motoring) or times ``eta / G`` (braking)."""
     from ltdsim.physics.drive import creep as _creep
 
-    fade = t.dynamic_brake_fade
-    if dem < 0.0 and fade > 0.0:
-        dem *= min(max(v0 / fade, 0.0), 1.0)
+    if dem < 0.0:
+        dem *= braking_share(v0, t.brake_fade)
     r = wrow[_creep.WS_R]
     tw = dem * r / n_motors
     if t.creep.slip_control.enabled:

@@ -155,6 +155,17 @@ class StepLimit:
     lag: tuple[str, float] | None  #: the fastest first-order lag (its key, tau s), if any
     others: dict  #: the largest stable step of every fixed-step method, s
     pipe: float = 0.0  #: fastest rate of the fluid brake's pipe, 1/s (0: lumped brake)
+    #: the dynamic brake's fade band near rest as a lag (its key, tau s), met only in a
+    #: stop by the dynamic brake: it warns, it does not refuse (:func:`warning`)
+    standstill: tuple[str, float] | None = None
+
+    @property
+    def standstill_limit(self) -> float:
+        """The largest step at which a stop by the dynamic brake settles without
+        chattering in its fade band, s (inf without one)."""
+        if self.standstill is None:
+            return math.inf
+        return real_radius(self.method) * self.standstill[1]
 
     @property
     def share(self) -> float:
@@ -197,6 +208,7 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
     if couplers is None:
         couplers = [scenario.coupler(j) for j in range(scenario.n_couplers)]
     ks, cs, lags = [], [], []
+    standstill = None
     for j, c in enumerate(couplers):
         ks.append(stiffest(c))
         cs.append(c.damping)
@@ -212,12 +224,29 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
         else:
             lags.append(("brake.apply_time_constant", b.apply_time_constant))
             lags.append(("brake.release_time_constant", b.release_time_constant))
+    tr = scenario.traction
     for k, loco in enumerate(scenario.consists()):
         own = scenario.locomotives and loco.time_constant is not None
-        tau = loco.time_constant if own else scenario.traction.time_constant
+        tau = loco.time_constant if own else tr.time_constant
         if tau > 0.0:
             lags.append((f"locomotives.{k}.time_constant" if own else "traction.time_constant",
                          tau))
+        # a dynamic brake fades linearly to 0 within its fade speed of rest: there its
+        # force is a damper of (its braking force / fade) on the consist's mass, a lag
+        # of mass x fade / force (s), met only once the brake has stopped the train (a
+        # step above it makes the stopped train chatter within the band, bounded by the
+        # demand: warned, not refused)
+        f_max = loco.max_force if scenario.locomotives and loco.max_force is not None \
+            else tr.max_force
+        mass = sum(scenario.vehicles[i].mass for i in loco.vehicles)
+        braking = _braking_force(scenario, loco, f_max)
+        if mass > 0.0 and braking > 0.0:
+            key = ("traction.dynamic_brake_fade" if tr.dynamic_brake_fade > 0.0
+                   else "traction.standstill_speed")
+            band = (f"{key} (the dynamic brake near rest, consist {k + 1})",
+                    mass * tr.brake_fade / braking)
+            if standstill is None or band[1] < standstill[1]:
+                standstill = band
     omega, zeta = highest_mode(masses, ks, cs)
     lag = min(lags, key=lambda t: t[1]) if lags else None
 
@@ -231,7 +260,28 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
 
     others = {m: limit(m) for m in TABLEAUX}
     return StepLimit(sv.method, sv.dt, others[sv.method], omega, zeta,
-                     max(ks) if ks else 0.0, lag, others, pipe)
+                     max(ks) if ks else 0.0, lag, others, pipe, standstill)
+
+
+def _braking_force(scenario, loco, f_max) -> float:
+    """The largest braking force the driver can ask of consist ``loco`` near standstill
+    (N, >= 0) with its force limit ``f_max`` (N): the speed controller's, down to
+    ``max_decel`` x the train's mass, when its reference speed comes within the fade
+    speed of rest (a run it never brings to a stop never meets the fade band); in
+    force mode the most negative point of the profile, in notch mode its most negative
+    notch (or the consist's own notch profile's) over 8 of f_max; all within f_max."""
+    dr = scenario.driver
+    own = getattr(loco, "notch_profile", None)
+    if own:
+        return f_max * max([-n for _, n in own] + [0.0]) / 8.0
+    if dr.mode == "speed":
+        if min(p[1] for p in dr.speed_profile) > scenario.traction.brake_fade:
+            return 0.0
+        mass = sum(v.mass for v in scenario.vehicles)
+        return min(f_max, scenario.traction.max_decel * mass)
+    if dr.mode == "notch":
+        return f_max * max([-n for _, n in dr.notch_profile] + [0.0]) / 8.0
+    return min(f_max, max([-f for _, f in dr.force_profile] + [0.0]))
 
 
 #: Mach number of the flow in every pipe face at which :func:`fluid_rates` bounds the
@@ -285,12 +335,22 @@ def refusal(lim: StepLimit) -> str:
 
 
 def warning(lim: StepLimit | None) -> str | None:
-    """A line for a step near (above ``WARN_SHARE`` of) the largest stable step."""
-    if lim is None or lim.share <= WARN_SHARE or lim.share > 1.0:
+    """A line for a step near (above ``WARN_SHARE`` of) the largest stable step, or above
+    the step at which a stop by the dynamic brake settles (:attr:`StepLimit.standstill`)."""
+    if lim is None or lim.share > 1.0:
         return None
-    return (f"solver.dt = {lim.dt:g} s is {lim.share:.0%} of the largest stable step of "
-            f"{lim.method} for this train ({lim.limit:.3g} s, set by {lim.reason()}); "
-            "a stiffer moment may grow: consider a smaller solver.dt")
+    if lim.share > WARN_SHARE:
+        return (f"solver.dt = {lim.dt:g} s is {lim.share:.0%} of the largest stable step "
+                f"of {lim.method} for this train ({lim.limit:.3g} s, set by "
+                f"{lim.reason()}); a stiffer moment may grow: consider a smaller solver.dt")
+    if lim.dt > lim.standstill_limit:
+        what, tau = lim.standstill
+        return (f"solver.dt = {lim.dt:g} s is above {lim.standstill_limit:.3g} s, the "
+                f"largest step of {lim.method} at which a train the dynamic brake stops "
+                f"comes to rest: the first-order lag {what} = {tau:.3g} s; a stopped train "
+                "would chatter within the fade band. Consider a smaller solver.dt, a wider "
+                "band, or bs23")
+    return None
 
 
 def check(scenario, source: str | None = None) -> StepLimit | None:

@@ -92,7 +92,20 @@ class Traction(_Strict):
     dynamic_brake_fade: float = Field(
         0.0, ge=0.0, le=30.0,
         description="speed below which dynamic braking fades linearly to 0, as motors give "
-                    "no braking at standstill, m/s (0 = the study's mirrored curve down to 0)")
+                    "no braking at standstill, m/s (0 = the study's mirrored curve down to "
+                    "standstill_speed)")
+    standstill_speed: float = Field(
+        0.01, gt=0.0, le=1.0,
+        description="with dynamic_brake_fade = 0, the speed below which dynamic braking "
+                    "fades linearly to 0 (and turns with the motion when the train runs "
+                    "back): no brake pushes a standing train, m/s")
+
+    @property
+    def brake_fade(self) -> float:
+        """The speed below which dynamic braking fades linearly to 0, m/s (> 0):
+        ``dynamic_brake_fade``, or without one ``standstill_speed``."""
+        return self.dynamic_brake_fade if self.dynamic_brake_fade > 0.0 else \
+            self.standstill_speed
     drive: Literal["curve", "induction"] = Field(
         "curve", description="what turns the demand into force: the traction curve and its "
                              "lag (curve), or induction motors under field-oriented control "
@@ -110,6 +123,12 @@ class Traction(_Strict):
     def _lag(self):
         if self.jerk_limit > 0.0 and self.time_constant == 0.0:
             raise ValueError("jerk_limit acts on the lagged force: give time_constant > 0")
+        # (a value other than the default: a scenario read back from its dictionary
+        # names every key)
+        default = type(self).model_fields["standstill_speed"].default
+        if self.dynamic_brake_fade > 0.0 and self.standstill_speed != default:
+            raise ValueError("standstill_speed has no effect with dynamic_brake_fade > 0 "
+                             "(the fade speed then sets the band): leave one of them out")
         return self
 
 

@@ -20,7 +20,7 @@ from ltdsim.engine.layout import (
 from ltdsim.physics.drive.creep import WS_I, WS_R, WS_VREG, slip_control, wheelset_rate
 from ltdsim.physics.drive.foc import N_DRIVE, O_ID, O_IQ, O_PDC, drive_rates
 from ltdsim.physics.drive.induction import IM_PRD, IM_PRQ, IM_PSD, IM_PSQ
-from ltdsim.physics.drive.traction import traction_max
+from ltdsim.physics.drive.traction import braking_share, traction_max
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -81,9 +81,8 @@ def _traction(t, y, a_dem, rtot, tr, dr, w, dy):
             f = min(max(f, -lim), lim)
         else:
             f = dl
-        fade = cons[c, K_DBFADE]
-        if f < 0.0 and fade > 0.0:  # dynamic braking dies away as the motors slow
-            f *= min(max(vc / fade, 0.0), 1.0)
+        if f < 0.0:  # dynamic braking dies away as the motors slow, and opposes the motion
+            f *= braking_share(vc, cons[c, K_DBFADE])
         w.fcons[c] = f
         ftot += f
     sig = w.sig[0]
@@ -112,9 +111,8 @@ def _drive_axle(y, dy, d, kd, vc, dem, out, sg):
     gr = ws[WS_I]
     eta = misc[DM_GEAR_EFF]
     nm = misc[DM_MOTORS]
-    fade = misc[DM_FADE]
-    if dem < 0.0 and fade > 0.0:
-        dem *= min(max(vc / fade, 0.0), 1.0)
+    if dem < 0.0:
+        dem *= braking_share(vc, misc[DM_FADE])
     tw = dem * r / nm
     om = y[zw]
     if misc[DM_SLIP_ON] > 0.0:

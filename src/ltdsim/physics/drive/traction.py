@@ -11,6 +11,18 @@ CURTIUS_KNIFFLER = (0.161, 7.5, 44.0)
 _C0, _C1, _C2 = CURTIUS_KNIFFLER
 
 
+@njit(cache=True, inline="always")
+def braking_share(v, fade):
+    """Share of a braking demand the motors give at the speed ``v`` (m/s, + forward), -,
+    signed: ``clip(v / fade, -1, 1)``. A dynamic brake opposes the motion and gives
+    nothing at rest (the motors' voltage, and their braking, vanish with their speed),
+    so its force is the demand times this share: full above the fade speed ``fade`` (m/s,
+    > 0), linear below it, zero at standstill and turned with the motion when the train
+    runs backwards. It cannot push a standing train."""
+    r = v / fade
+    return 1.0 if r > 1.0 else (-1.0 if r < -1.0 else r)
+
+
 @njit(cache=True, error_model="numpy")
 def adhesion_max(v, adhesion_mass, g):
     """:func:`adhesion_limit` at one point, for compiled code: the kernels call it, the
