@@ -78,7 +78,10 @@ def test_steady_stroke_follows_the_closed_form(v):
     # start decays at the rate (k_h + k_s) / F_o'(u): twelve of its time constants (at
     # most 0.1 s) later it is below 1e-5 of the force
     tau = (p["orifice_linear"] + 2 * p["orifice_quadratic"] * v) / (kh + ks)
-    settled = ds.time.values > p["preload"] / (kh * v) + 12 * tau
+    # (the record's last sample, at the drive's end, reads the drive's rate past its
+    # table: left out)
+    time = ds.time.values
+    settled = (time > p["preload"] / (kh * v) + 12 * tau) & (time < time[-1])
     assert settled.sum() > 500
     # steady, the column's force grows with the spring's, k_h (V - u) = k_s u: the piston
     # strokes at u = V k_h / (k_h + k_s), and T = P + k_s s + F_o(u) with s = x - T / k_h
