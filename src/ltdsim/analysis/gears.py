@@ -33,8 +33,18 @@ def _dataset(run: _Run, **attrs) -> xr.Dataset:
     return ds
 
 
-def drive_deflection(params: CouplerParams, t, d, *, dt: float = 1e-4, method: str = "ode3"
-                     ) -> xr.Dataset:
+#: the rig's step of :func:`drive_deflection` unless told, s
+DEFLECTION_DT = 1e-4
+
+
+def rig_samples(duration: float, dt: float = DEFLECTION_DT) -> int:
+    """Samples the rig records over ``duration`` seconds at step ``dt`` (it records every
+    step, in four arrays: time, deflection, rate, force)."""
+    return int(round(duration / dt)) + 1
+
+
+def drive_deflection(params: CouplerParams, t, d, *, dt: float = DEFLECTION_DT,
+                     method: str = "ode3") -> xr.Dataset:
     """Force of a gear whose deflection follows ``d(t)``.
 
     Parameters
@@ -99,6 +109,16 @@ def loop_energy(ds: xr.Dataset) -> float:
     return float(np.trapezoid(ds.force.values * ds.rate.values, ds.time.values))
 
 
+def series_range() -> tuple[int, int]:
+    """The gears in series a coupling may have: the range of the coupler key ``gears``
+    in the scenario schema (1 to 2)."""
+    from ltdsim.scenario.couplers import _CouplerBase
+
+    meta = _CouplerBase.model_fields["gears"].metadata
+    return (int(next(m.ge for m in meta if hasattr(m, "ge"))),
+            int(next(m.le for m in meta if hasattr(m, "le"))))
+
+
 def table_from_ratings(travel: float, force: float, capacity: float, absorptivity: float, *,
                        preload: float = 0.0, points: int = 21, turn: float = 0.05,
                        series: int = 1) -> dict:
@@ -153,6 +173,7 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
     """
     from scipy.optimize import brentq
 
+    lo_s, hi_s = series_range()
     mean = capacity / travel if travel > 0.0 else np.nan
     checks = [
         (travel > 0.0, "travel", "must be > 0 m"),
@@ -164,7 +185,8 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
         (0.0 < absorptivity < 1.0, "absorptivity", "must lie in (0, 1)"),
         (points >= 3, "points", "must be at least 3"),
         (0.0 < turn <= 1.0, "turn", "must lie in (0, 1]"),
-        (series >= 1, "series", "must be at least 1"),
+        (lo_s <= series <= hi_s, "series", f"must be a whole number from {lo_s} to {hi_s} "
+         "(the coupler key gears: gears in series in a coupling)"),
     ]
     for ok, key, why in checks:
         if not ok:
@@ -239,6 +261,56 @@ def table_toml(gear: dict, *, slack: float = 0.0, comment: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
+def impact_scenario(params: CouplerParams, speed: float, *, mass_moving: float = 90000.0,
+                    mass_standing: float = 90000.0, dt: float = 1e-4, method: str = "ode3",
+                    t_max: float = 2.0) -> Scenario:
+    """The two-wagon scenario :func:`impact` runs: a wagon at ``speed`` (m/s) against a
+    standing one, the coupling bunched, through gear ``params``."""
+    return Scenario.from_dict({
+        "name": "impact",
+        "solver": {"method": method, "dt": dt, "t_end": t_max, "output_interval": dt},
+        "vehicles": [{"name": "standing", "mass": mass_standing, "length": 15.0, "powered": True},
+                     {"name": "moving", "mass": mass_moving, "length": 15.0}],
+        "couplers": {"default": params.model_dump(exclude_none=True)},
+        "traction": {"max_force": 1.0, "max_power": 1.0, "adhesion_mass": 1.0},
+        "driver": {"mode": "force", "force_profile": [[0.0, 0.0]]},
+        "initial": {"velocities": [0.0, float(speed)], "couplers": "bunched"},
+    }, "impact")
+
+
+def lightest_impact_mass(params: CouplerParams, *, dt: float = 1e-4, method: str = "ode3",
+                         heaviest: float | None = None) -> float | None:
+    """The lightest mass (kg, both wagons alike, 3 significant figures rounded up) at which
+    :func:`impact`'s fixed step ``dt`` is stable for gear ``params``
+    (:func:`ltdsim.engine.preflight.step_limit`: lighter wagons on the same gear ring
+    faster). None when no mass up to ``heaviest`` (the schema's vehicle mass limit) is."""
+    import math
+
+    from ltdsim.engine.preflight import step_limit
+    from ltdsim.scenario._base import MAX_MASS
+
+    heaviest = MAX_MASS if heaviest is None else heaviest
+
+    def stable(m: float) -> bool:
+        lim = step_limit(impact_scenario(params, 1.0, mass_moving=m, mass_standing=m, dt=dt,
+                                         method=method))
+        return lim is None or lim.share <= 1.0
+
+    if not stable(heaviest):
+        return None
+    lo, hi = heaviest * 1e-15, heaviest  # (lo unstable for any gear a train can have)
+    if stable(lo):
+        return lo
+    for _ in range(60):  # bisection in log m
+        mid = math.sqrt(lo * hi)
+        lo, hi = (lo, mid) if stable(mid) else (mid, hi)
+        if hi / lo < 1 + 1e-4:
+            break
+    digits = 10 ** (math.floor(math.log10(hi)) - 2)
+    up = math.ceil(hi / digits - 1e-9) * digits
+    return min(float(f"{up:.3g}"), heaviest)
+
+
 def impact(params: CouplerParams, speed: float, *, mass_moving: float = 90000.0,
            mass_standing: float = 90000.0, dt: float = 1e-4, method: str = "ode3",
            t_max: float = 2.0) -> dict:
@@ -251,16 +323,8 @@ def impact(params: CouplerParams, speed: float, *, mass_moving: float = 90000.0,
     """
     from ltdsim.results.simulate import simulate
 
-    sc = Scenario.from_dict({
-        "name": "impact",
-        "solver": {"method": method, "dt": dt, "t_end": t_max, "output_interval": dt},
-        "vehicles": [{"name": "standing", "mass": mass_standing, "length": 15.0, "powered": True},
-                     {"name": "moving", "mass": mass_moving, "length": 15.0}],
-        "couplers": {"default": params.model_dump(exclude_none=True)},
-        "traction": {"max_force": 1.0, "max_power": 1.0, "adhesion_mass": 1.0},
-        "driver": {"mode": "force", "force_profile": [[0.0, 0.0]]},
-        "initial": {"velocities": [0.0, float(speed)], "couplers": "bunched"},
-    }, "impact")
+    sc = impact_scenario(params, speed, mass_moving=mass_moving, mass_standing=mass_standing,
+                         dt=dt, method=method, t_max=t_max)
     ds = simulate(sc)
     f = ds.coupler_force.isel(coupler=0).values
     d = ds.coupler_deflection.isel(coupler=0).values

@@ -13,7 +13,8 @@ import typer
 from ltdsim.errors import ScenarioError, SimulationError
 from ltdsim.cli.common import (
     COUPLER_COL, CaseOpt, QuietOpt, SetOpt, VEHICLE_COL, check_folder, check_number,
-    console, fail, plain_table, result_or_scenario, say, write_csv,
+    check_output_files, console, err_console, fail, plain_table, result_or_scenario, say,
+    write_csv,
 )
 
 
@@ -122,6 +123,8 @@ def modal(
                 raise ScenarioError("--stiffness", [("", "must be draft, buff or a coupling "
                                                          "stiffness in (0, 1e12] N/m "
                                                          f"(got {stiffness})")])
+        names = (f"modes_{stiffness}.csv", f"mode_shapes_{stiffness}.png")
+        check_output_files(output, names)
         _, sc = result_or_scenario(file, case, run=False, overrides=set_)
         table = train_modes(sc, which)
     except (ScenarioError, ValueError) as exc:
@@ -136,15 +139,23 @@ def modal(
     for i, f in enumerate(table.frequency_hz):
         out.add_row(str(i + 1), f"{f:.3f}")
     console.print(out)
-    output.mkdir(parents=True, exist_ok=True)
     n = table.shape[1] - 1
     shapes = table.rename(columns={f"vehicle_{i}": f"vehicle {i + 1}" + (" (lead)" if i == 0
                                                                            else "")
                                    for i in range(n)})
     shapes.index = shapes.index + 1
     shapes.index.name = "mode (1 = lowest)"
-    write_csv(shapes, output / f"modes_{stiffness}.csv", index=True)
-    save_mode_shapes(table, output / f"mode_shapes_{stiffness}.png", title=what)
+    try:  # (checked before the work; a disk that fills up meanwhile still fails here)
+        output.mkdir(parents=True, exist_ok=True)
+        write_csv(shapes, output / names[0], index=True)
+        save_mode_shapes(table, output / names[1], title=what)
+    except OSError as exc:
+        from rich.markup import escape
+
+        err_console.print(f"[bold red]error (writing failed):[/] "
+                          f"{escape(str(exc.filename or output))}: "
+                          f"{escape(exc.strerror or str(exc))}", highlight=False, soft_wrap=True)
+        raise typer.Exit(3) from None
     say(f"table and mode-shape figure written to {output}")
 
 

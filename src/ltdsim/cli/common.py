@@ -122,10 +122,12 @@ def say(text: str) -> None:
 
 
 def check_number(option: str, value, lo=None, hi=None, *, lo_open: bool = False,
-                  unit: str = "", whole: bool = False, also: str = "") -> None:
+                  unit: str = "", whole: bool = False, also: str = "",
+                  reason: str = "") -> None:
     """Refuse, before any work, a numeric option outside its range (or not finite):
     ``--series: must be a whole number from 1 to 10 (got 0)``. ``lo_open`` excludes
-    ``lo``; ``also`` names an extra allowed value (``-1 (all cores)``)."""
+    ``lo``; ``also`` names an extra allowed value (``-1 (all cores)``); ``reason`` says
+    after the value what sets the range."""
     import math
 
     ok = isinstance(value, (int, float)) and math.isfinite(value)
@@ -149,7 +151,9 @@ def check_number(option: str, value, lo=None, hi=None, *, lo_open: bool = False,
     else:
         rng = f"at most {num(hi)}{u}"
     extra = f", or {also}" if also else ""
-    raise ScenarioError(option, [("", f"must be {kind} {rng}{extra} (got {value:g})")])
+    why = f": {reason}" if reason else ""
+    got = (str(int(value)) if whole and isinstance(value, int) else f"{value:g}")
+    raise ScenarioError(option, [("", f"must be {kind} {rng}{extra} (got {got}){why}")])
 
 
 def check_workers(workers: Optional[int], option: str = "--workers") -> None:
@@ -228,6 +232,27 @@ def check_output(path: Optional[Path], option: str, suffixes, inputs=()) -> None
         raise ScenarioError(option, [("", f"cannot write {what} ({path}); accepted: "
                                           f"{', '.join(kinds.get(x, x) for x in suffixes)}")])
     check_writable(path.parent, option)
+
+
+def check_new(path: Optional[Path], option: str) -> None:
+    """Refuse, before any work, an output file that already exists (a scenario, a preset,
+    someone's notes): ltdsim writes such a file only where there is none."""
+    if path is not None and path.is_file():
+        raise ScenarioError(option, [("", f"{path} exists; ltdsim does not write over an "
+                                          "existing file: choose a new name, or remove it "
+                                          "first")])
+
+
+def check_output_files(folder: Path, names, option: str = "--output") -> None:
+    """Refuse, before any work, a file name the command writes in ``folder`` (each of
+    ``names``) that is taken by something other than a file (a folder): writing it would
+    fail only after the work."""
+    for name in names:
+        path = folder / name
+        if path.exists() and not path.is_file():
+            raise ScenarioError(option, [("", f"{path} is a folder where this command "
+                                              "writes a file; move or remove it, or choose "
+                                              f"another {option}")])
 
 
 def check_folder(path: Path, option: str = "--output") -> None:

@@ -13,12 +13,18 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ltdsim.errors import ScenarioError
 from ltdsim.cli.common import (
-    CouplerOpt, PresetOpt, ScenarioOpt, check_number, check_output, console,
+    CouplerOpt, PresetOpt, ScenarioOpt, check_new, check_number, check_output, console,
     err_console, fail, gear_params, image_suffixes, plain_table, say, write_csv,
 )
 
 
-gear_app = typer.Typer(no_args_is_help=True, help="A single draft gear: loops and impacts.")
+gear_app = typer.Typer(no_args_is_help=True, help=(
+    "A single draft gear on the rig: loop (its force-deflection loop), impact (two wagons "
+    "run together) and ratings (a table gear from catalogue ratings)."))
+
+#: the most samples ``gear loop`` lets the rig record (at its 1e-4 s step, four arrays:
+#: about 4 GB and 20 s with the figure): one cycle of the longest --period
+MAX_LOOP_SAMPLES = 36_000_001
 
 
 @gear_app.command("loop")
@@ -35,13 +41,20 @@ def gear_loop(
     """Cycle one gear through a prescribed deflection and plot its force-deflection loop."""
     import numpy as np
 
-    from ltdsim.analysis.gears import drive_deflection, loop_energy
+    from ltdsim.analysis.gears import DEFLECTION_DT, drive_deflection, loop_energy, rig_samples
 
     try:
         check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
         check_number("--amplitude", amplitude, 0.0, 1.0, lo_open=True, unit="m")
         check_number("--period", period, 0.1, 3600.0, unit="s")
         check_number("--cycles", cycles, 1, 100, whole=True)
+        samples = rig_samples(cycles * period)
+        if samples > MAX_LOOP_SAMPLES:
+            most = (MAX_LOOP_SAMPLES - 1) * DEFLECTION_DT
+            raise ScenarioError("--period x --cycles", [("", (
+                f"{period:g} s x {cycles} = {cycles * period:g} s would record {samples:,} "
+                f"samples (the rig's {DEFLECTION_DT:g} s step); at most {most:g} s "
+                f"({MAX_LOOP_SAMPLES:,} samples): give fewer cycles or a shorter period"))])
         params = gear_params(preset, scenario, coupler)
     except ScenarioError as exc:
         fail(exc)
@@ -69,12 +82,22 @@ def gear_impact(
     """Run a wagon into a standing wagon at several speeds: peak force, travel, energy."""
     import pandas as pd
 
-    from ltdsim.analysis.gears import impact
+    from ltdsim.analysis.gears import impact, lightest_impact_mass
+    from ltdsim.scenario._base import MAX_MASS
 
     try:
         check_output(csv, "--csv", (".csv",), inputs=(scenario,))
-        check_number("--mass", mass, 0.0, 1e6, lo_open=True, unit="kg")
+        check_number("--mass", mass, 0.0, MAX_MASS, lo_open=True, unit="kg")  # (the schema's)
         params = gear_params(preset, scenario, coupler)
+        lightest = lightest_impact_mass(params)  # (the rig's fixed 1e-4 s step)
+        if lightest is None:
+            raise ScenarioError("--mass", [("", "no wagon mass up to the vehicle limit "
+                                                f"{MAX_MASS:g} kg keeps the impact's 1e-4 s "
+                                                "step stable on this gear")])
+        if mass < lightest:
+            check_number("--mass", mass, lightest, MAX_MASS, unit="kg",
+                         reason="on this gear lighter wagons ring faster than the "
+                                "impact's fixed 1e-4 s step can follow")
         values = [float(v) for v in speeds.split(",") if v.strip()]
         if not values:
             raise ValueError
@@ -118,17 +141,21 @@ def gear_ratings(
                     ] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", "-p", help="loop figure")] = None,
 ) -> None:
-    """A table gear from its catalogue ratings (travel, force, capacity, absorptivity),
-    checked by closing and releasing it slowly on the rig."""
+    """A table gear from its catalogue ratings (travel, force, capacity, absorptivity).
+
+    Checked by closing and releasing it slowly on the rig."""
     import numpy as np
 
-    from ltdsim.analysis.gears import drive_deflection, loop_energy, table_from_ratings, table_toml
+    from ltdsim.analysis.gears import (drive_deflection, loop_energy, series_range,
+                                       table_from_ratings, table_toml)
     from ltdsim.scenario import CouplerParams
 
     try:
         check_output(toml, "--toml", (".toml",))
+        check_new(toml, "--toml")
         check_output(plot, "--plot", image_suffixes())
         check_number("--slack", slack, 0.0, 1.0, unit="m")
+        check_number("--series", series, *series_range(), whole=True)
     except ScenarioError as exc:
         fail(exc)
         return
@@ -202,6 +229,7 @@ def reduce(
     try:
         check_output(plot, "--plot", image_suffixes(), inputs=(scenario,))
         check_output(toml, "--toml", (".toml",), inputs=(scenario,))
+        check_new(toml, "--toml")
         check_number("--mass", mass, 0.0, 1e8, lo_open=True, unit="kg")
         check_number("--dt", dt, 0.0, 1e-2, lo_open=True, unit="s")
         if workers != -1:

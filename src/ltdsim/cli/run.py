@@ -61,6 +61,12 @@ def run(
         if curving_plot is not None:
             check_output(curving_plot, "--plot (the curving figure beside it)",
                           image_suffixes(), inputs=(file,))
+        earlier = (check_report_folder(report, {"--output": output, "--plot": plot,
+                                                "--plot (the brake-pressure figure beside it)":
+                                                brake_plot,
+                                                "--plot (the curving figure beside it)":
+                                                curving_plot})
+                   if report is not None else [])
         label = scenario_label(sc)  # plain text: _table keeps it so
         ds = simulate_shown(sc, quiet, file, "--set" if set_ else None)
     except (ScenarioError, SimulationError) as exc:
@@ -120,15 +126,89 @@ def run(
             save_curving(ds, curving_plot, summary=curving)
             say(f"curving figure written to {curving_plot}")
         if report is not None:
-            from ltdsim.study.report import write_run_report
-
-            page = write_run_report(ds, report, f"ltdsim run: {label}")
+            page = write_report(ds, report, f"ltdsim run: {label}", earlier)
             say(f"report written to {page}")
     except OSError as exc:
         err_console.print(f"[bold red]error (writing failed):[/] "
                           f"{escape(str(exc.filename or output or plot))}: "
                           f"{escape(exc.strerror or str(exc))}", highlight=False, soft_wrap=True)
         raise typer.Exit(3) from None
+
+
+#: the record ``run --report`` leaves in its folder: the files it wrote there, each with
+#: its size and content hash, so that a later report into the folder knows them
+REPORT_RECORD = "run-report.json"
+#: the files a run's report may write (ltdsim.study.report.run_page.write_run_report)
+REPORT_FILES = ("index.html", "couplers.csv", "curving.png", "curving_worst.csv")
+
+
+def check_report_folder(folder: Path, outputs: dict) -> list[dict]:
+    """Refuse, before the run, a ``--report`` folder holding anything but an earlier
+    report of ``ltdsim run`` (the files its record lists, unchanged since: the same size
+    and content) and this command's other ``outputs`` (option: path): a page or table of
+    someone else's is never written over, and no earlier run's figure is left beside
+    the new page. Refuses too an output of this command where the report writes. Returns
+    the records of the earlier report's files (replaced or removed once the new one is
+    written)."""
+    from ltdsim.results.io import file_problem, read_sealed, same_file
+
+    for option, path in outputs.items():
+        for name in (*REPORT_FILES, REPORT_RECORD):
+            if path is not None and same_file(path, folder / name):
+                raise ScenarioError(option, [("", f"{path} is where --report writes its "
+                                                  f"{name}; choose another path")])
+    if not folder.is_dir():
+        return []
+    own = []
+    try:
+        rec = read_sealed(folder / REPORT_RECORD)
+    except (FileNotFoundError, ValueError):  # (a damaged record: nothing is known as ours)
+        rec = None
+    files = rec.get("files") if isinstance(rec, dict) else None
+    if isinstance(files, list):
+        own = [f for f in files if isinstance(f, dict) and isinstance(f.get("path"), str)
+               and Path(f["path"]).name == f["path"] and file_problem(f, folder) is None]
+    known = {f["path"] for f in own} | ({REPORT_RECORD} if isinstance(files, list) else set())
+    keep = {Path(path).name for path in outputs.values()
+            if path is not None and same_file(Path(path).parent, folder)}
+    foreign = sorted(e.name for e in folder.iterdir() if e.name not in known | keep)
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3
+                                          else "")
+        raise ScenarioError("--report", [("", f"{folder} holds what ltdsim run --report did "
+                                              f"not write ({shown}); give an empty or new "
+                                              "folder, or one holding only an earlier run's "
+                                              "report")])
+    return own
+
+
+def write_report(ds, folder: Path, title: str, earlier: list[dict]) -> Path:
+    """Write the run's report into ``folder`` (checked by :func:`check_report_folder`),
+    remove the files of the earlier report there that the new one did not write again
+    (an earlier run's curving figure, say, if still as that report wrote it), and record
+    the files written. Returns the page's path."""
+    import os
+
+    from ltdsim.results.io import atomic_path, file_problem, file_record, sealed_json
+    from ltdsim.study.report import write_run_report
+
+    def seen() -> dict:
+        if not folder.is_dir():
+            return {}
+        return {e.name: (s.st_ino, s.st_mtime_ns) for e in folder.iterdir()
+                for s in (e.stat(),)}
+
+    before = seen()
+    page = write_run_report(ds, folder, title)
+    written = sorted(name for name, st in seen().items()
+                     if before.get(name) != st and name != REPORT_RECORD)
+    for rec in earlier:
+        if rec["path"] not in written and file_problem(rec, folder) is None:
+            os.unlink(folder / rec["path"])
+    with atomic_path(folder / REPORT_RECORD) as tmp:
+        tmp.write_text(sealed_json({"written_by": "ltdsim run --report",
+                                    "files": [file_record(folder / n, folder) for n in written]}))
+    return page
 
 
 def _speed(v: float, digits: int = 1) -> str:

@@ -13,7 +13,7 @@ from rich.markup import escape
 from ltdsim.errors import LtdsimError, ScenarioError
 from ltdsim.progress import Display
 from ltdsim.cli.common import (
-    case_counter, check_folder, check_scheduler, check_workers, console, err_console,
+    case_counter, check_folder, check_output_files, check_scheduler, check_workers, console, err_console,
     fail, parse_set, plain_table, say, simulate_shown, write_csv,
 )
 
@@ -47,6 +47,8 @@ def sweep(
         check_workers(workers)
         for folder in (output, output / "cases") + ((output / "figures",) if figures else ()):
             check_folder(folder)
+        # the tables written once every case has run
+        check_output_files(output, ("summary.csv", "phase_norms.csv"))
         with Display(err_console) as show:
             checking = case_counter(show, "checking the cases")
             spec = sw.load_sweep(file, progress=checking)
