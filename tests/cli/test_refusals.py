@@ -3,7 +3,6 @@ and its range (exit code 2, no traceback); what is refused is left as it was, an
 allowed still runs."""
 
 import sys
-from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
