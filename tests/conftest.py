@@ -115,3 +115,20 @@ def short_paper(tmp_path, keep=("LHHL", "HHHH")):
     p = tmp_path / "paper-short.toml"
     p.write_text(head + "\n".join(kept))
     return p
+
+
+def cli_refused(*args, code=2) -> str:
+    """Run the CLI in-process; assert it refused cleanly (exit code, one error line, no
+    traceback) and return the error text."""
+    from typer.testing import CliRunner
+
+    from ltdsim.cli.app import app
+
+    res = CliRunner().invoke(app, [str(a) for a in args])
+    text = res.stdout + res.stderr
+    assert res.exit_code == code, text
+    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
+    assert "Traceback" not in text
+    errors = [line for line in res.stderr.splitlines() if line.startswith("error")]
+    assert len(errors) == 1, res.stderr
+    return " ".join(res.stderr.split())  # (rich may wrap a long line)

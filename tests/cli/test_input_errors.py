@@ -10,7 +10,7 @@ import pytest
 import ltdsim
 from ltdsim import ScenarioError, SimulationError
 
-from conftest import ROOT, build, train_dict
+from conftest import ROOT, build, cli_refused, train_dict
 
 EXAMPLE = (ROOT / "scenarios" / "short-train.toml").read_text()
 
@@ -170,17 +170,6 @@ RUNNER = CliRunner()
 SHORT = ROOT / "scenarios" / "short-train.toml"
 
 
-def cli_refused(*args, code=2) -> str:
-    """Run the CLI in-process; assert it refused cleanly (exit code, one error line, no
-    traceback) and return the error text."""
-    res = RUNNER.invoke(app, [str(a) for a in args])
-    text = res.stdout + res.stderr
-    assert res.exit_code == code, text
-    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
-    assert "Traceback" not in text
-    errors = [line for line in res.stderr.splitlines() if line.startswith("error")]
-    assert len(errors) == 1, res.stderr
-    return " ".join(res.stderr.split())  # (rich may wrap a long line)
 
 
 @pytest.mark.parametrize("name, content, words", [

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from ltdsim.cli.app import app
 
-from conftest import ROOT
+from conftest import ROOT, cli_refused
 
 RUNNER = CliRunner()
 SHORT = ROOT / "scenarios" / "short-train.toml"
@@ -17,17 +17,6 @@ RATINGS = ["gear", "ratings", "--travel", "0.083", "--force", "2.27e6", "--capac
            "--absorptivity", "0.8"]
 
 
-def cli_refused(*args, code=2) -> str:
-    """Run the CLI in-process; assert it refused cleanly (exit code, one error line, no
-    traceback) and return the error text."""
-    res = RUNNER.invoke(app, [str(a) for a in args])
-    text = res.stdout + res.stderr
-    assert res.exit_code == code, text
-    assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
-    assert "Traceback" not in text
-    errors = [line for line in res.stderr.splitlines() if line.startswith("error")]
-    assert len(errors) == 1, res.stderr
-    return " ".join(res.stderr.split())  # (rich may wrap a long line)
 
 
 def cli_ok(*args) -> str:
