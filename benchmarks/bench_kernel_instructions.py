@@ -45,6 +45,8 @@ kind = sys.argv[1]
 sc = ltdsim.load_scenario("scenarios/paper.toml", case="LHHL")
 if kind == "simplified":
     sc = sc.with_overrides({"solver.t_end": 2.0})
+elif kind == "energy":
+    sc = sc.with_overrides({"solver.t_end": 2.0, "solver.energy": True})
 elif kind == "wedge":
     sc = sc.with_overrides({"couplers.default": {"preset": "friction-wedge-high"},
                             "solver.t_end": 1.0})
@@ -59,6 +61,7 @@ subprocess.run(["callgrind_control", "-i", "off", pid], check=True, capture_outp
 """
 
 CASES = {"simplified": "base scenario, simplified couplers, ode3, 2 s",
+         "energy": "the same with the energy accounted (solver.energy = true)",
          "wedge": "base scenario, friction-wedge-high gears, ode3, 1 s",
          "heavy": "heavy-haul train, bs23, air brakes, 20 s"}
 

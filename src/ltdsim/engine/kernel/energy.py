@@ -1,8 +1,8 @@
 """The power of every force on the train and the energy accounting (``solver.energy``).
 
-The fixed-step kernel sums each power's trapezoids over its grid (:func:`_account_fixed`,
-:func:`_energy_totals`); the adaptive kernel integrates the powers as states with the
-motion (:func:`_energy_rates`). The terms are :data:`ltdsim.engine.layout.ENERGY_TERMS`
+The fixed-step kernel sums each power's trapezoids over its grid (:func:`_account_first`,
+:func:`_account_step`, :func:`_energy_totals`); the adaptive kernel integrates the powers
+as states with the motion (:func:`_energy_rates`). The terms are :data:`ltdsim.engine.layout.ENERGY_TERMS`
 then one per coupler.
 """
 
@@ -17,100 +17,135 @@ from ltdsim.engine.layout import (
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _powers(y, tr, w, row):
-    """The power of each force on the train (W) at state ``y`` into ``w.pw[row]`` (the
-    energy terms ``E_*``, then one per coupler), from the forces the last
-    right-hand-side evaluation left in :class:`Work`: traction at the rail split into
-    motoring and dynamic braking (:func:`_traction_powers`); air brakes, Davis, grade
-    and curve resistance each the power it takes from the train (the grade's is the
-    rate of potential energy gained, < 0 downhill; the Davis term is the vehicles' whole
-    resistance less the other three, the forces the motion used); each coupler the power
-    it takes, ``T (v_j - v_(j+1))`` (its gears' dissipation plus the rate of what they
-    store)."""
+def _powers(y, tr, w, row, add):
+    """The power of each force on the train but traction (W) at state ``y``, from the
+    forces the last right-hand-side evaluation left in :class:`Work`: air brakes, Davis,
+    grade and curve resistance each the power it takes from the train (the grade's is
+    the rate of potential energy gained, < 0 downhill; the Davis term is the vehicles'
+    whole resistance less the other three, the forces the motion used); each coupler the
+    power it takes, ``T (v_j - v_(j+1))`` (its gears' dissipation plus the rate of what
+    they store). Written to ``w.pw[row]`` (the energy terms from ``E_AIR``, then one per
+    coupler) unless ``row`` < 0, and added to the running sums ``w.pw[PW_SUM]`` when
+    ``add``; both are constants at each call site, so the inlined copies keep only their
+    branches. One pass over the vehicles: each speed is read once and each coupler's
+    power is taken with its rear vehicle."""
     veh = tr.veh
     n = veh.shape[0]
     tres = w.tres
     res = w.res
+    force = w.force
     pw = w.pw
-    pw[row, E_MOTOR], pw[row, E_DYN] = _traction_powers(y, tr, w, w.fcons)
     total = 0.0
     grade = 0.0
     curve = 0.0
+    v_ahead = 0.0
     for i in range(n):
         v = y[n + i]
         total += res[i] * v
         grade += tres[i, 0] * v
         curve += tres[i, 1] * abs(v)  # (curve_force's sign rule: it opposes the motion)
+        if i > 0:
+            p = force[i - 1] * (v_ahead - v)
+            if row >= 0:
+                pw[row, N_ENERGY + i - 1] = p
+            if add:
+                pw[PW_SUM, N_ENERGY + i - 1] += p
+        v_ahead = v
     air = 0.0
     if w.bforce_on[0]:
         bforce = w.bforce
         for i in range(n):
             air += bforce[i] * y[n + i]
-    pw[row, E_AIR] = air
-    pw[row, E_DAVIS] = total - grade - curve - air
-    pw[row, E_GRADE] = grade
-    pw[row, E_CURVE] = curve
-    force = w.force
-    for j in range(n - 1):
-        pw[row, N_ENERGY + j] = force[j] * (y[n + j] - y[n + j + 1])
+    davis = total - grade - curve - air
+    if row >= 0:
+        pw[row, E_AIR] = air
+        pw[row, E_DAVIS] = davis
+        pw[row, E_GRADE] = grade
+        pw[row, E_CURVE] = curve
+    if add:
+        pw[PW_SUM, E_AIR] += air
+        pw[PW_SUM, E_DAVIS] += davis
+        pw[PW_SUM, E_GRADE] += grade
+        pw[PW_SUM, E_CURVE] += curve
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _traction_powers(y, tr, w, f_trac):
-    """Power of the traction force ``f_trac`` (N per locomotive consist) at the rail at
-    state ``y``, W: ``(motoring, dynamic braking)``, split by the sign of its power on
-    each powered vehicle (dynamic braking counted as the power the locomotive takes
-    back, >= 0)."""
+def _traction_powers(y, tr, w, f_now, f_held):
+    """Power of the traction forces ``f_now`` and ``f_held`` (N per locomotive consist)
+    at the rail at state ``y``, W: ``(motoring, dynamic braking)`` of each, split by the
+    sign of its power on each powered vehicle (dynamic braking counted as the power the
+    locomotive takes back, >= 0)."""
     veh = tr.veh
     n = veh.shape[0]
     motor = 0.0
     dyn = 0.0
+    held_m = 0.0
+    held_d = 0.0
     for i in tr.powered:
-        p = veh[i, V_SHARE] * f_trac[int(veh[i, V_CONS])] * y[n + i]
+        c = int(veh[i, V_CONS])
+        v = y[n + i]
+        p = veh[i, V_SHARE] * f_now[c] * v
         if p > 0.0:
             motor += p
         else:
             dyn -= p
-    return motor, dyn
+        p = veh[i, V_SHARE] * f_held[c] * v
+        if p > 0.0:
+            held_m += p
+        else:
+            held_d -= p
+    return motor, dyn, held_m, held_d
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _account_fixed(first, h, y, tr, w):
-    """The energy accounting of :func:`run` at the start of a step, after the right-hand
-    side at ``(t, y)`` (so the forces in :class:`Work` are this state's).
-
-    On a fixed grid the trapezoids of a power over the steps sum to ``h (the sum of all
-    its samples - (first + latest) / 2)``, so each step only adds the powers now to their
-    running sums (``w.pw[PW_SUM]``; the first samples in ``w.pw[PW_START]``) and
-    :func:`_energy_totals` forms the totals where they are recorded. Traction is the
-    exception: the driver's demand is held over a step and jumps where the controller
-    samples, so each step's trapezoid takes its end with the force held over that step
-    (``w.fprev``) and is added here."""
+def _account_first(y, tr, w):
+    """The energy accounting of :func:`run` at its first step, after the right-hand side
+    at ``(0, y)``: the powers now (W) are every power's first sample (``w.pw[PW_START]``),
+    its latest (``w.pw[PW_END]``) and its running sum (``w.pw[PW_SUM]``), and the
+    traction force now is the one held over the step (``w.fprev``)."""
     pw = w.pw
-    e = w.energy
-    _powers(y, tr, w, PW_END)  # this state's powers, traction with its force now
-    if not first:
-        held_m, held_d = _traction_powers(y, tr, w, w.fprev)
-        half = 0.5 * h
-        e[E_MOTOR] += half * (pw[PW_START, E_MOTOR] + held_m)
-        e[E_DYN] += half * (pw[PW_START, E_DYN] + held_d)
-    pw[PW_START, E_MOTOR] = pw[PW_END, E_MOTOR]
-    pw[PW_START, E_DYN] = pw[PW_END, E_DYN]
+    pw[PW_END, E_MOTOR], pw[PW_END, E_DYN], _, _ = _traction_powers(y, tr, w, w.fcons,
+                                                                    w.fcons)
+    _powers(y, tr, w, PW_END, False)
+    for q in range(pw.shape[1]):
+        pw[PW_START, q] = pw[PW_END, q]
+        pw[PW_SUM, q] = pw[PW_END, q]
     for c in range(w.fcons.shape[0]):
         w.fprev[c] = w.fcons[c]
-    if first:
-        for q in range(E_AIR, pw.shape[1]):  # (E_MOTOR, E_DYN first: layout.ENERGY_TERMS)
-            pw[PW_START, q] = pw[PW_END, q]
-            pw[PW_SUM, q] = pw[PW_END, q]
-        return
-    for q in range(E_AIR, pw.shape[1]):
-        pw[PW_SUM, q] += pw[PW_END, q]
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _account_step(h, y, tr, w, keep_end):
+    """The energy accounting of :func:`run` at the start of a later step of ``h`` (s),
+    after the right-hand side at ``(t, y)`` (so the forces in :class:`Work` are this
+    state's); ``keep_end``: also leave the powers now in ``w.pw[PW_END]`` for
+    :func:`_energy_totals` (at a recorded step; a constant at each call site).
+
+    On a fixed grid the trapezoids of a power over the steps sum to ``h (the sum of all
+    its samples - (first + latest) / 2)``, so each step only adds the powers now (W) to
+    their running sums (``w.pw[PW_SUM]``) and :func:`_energy_totals` forms the totals
+    where they are recorded. Traction is the exception: the driver's demand is held over
+    a step and jumps where the controller samples, so each step's trapezoid takes its end
+    with the force held over that step (``w.fprev``) and its start from the step before
+    (``w.pw[PW_START]``), and is added to ``w.energy`` here."""
+    pw = w.pw
+    e = w.energy
+    motor, dyn, held_m, held_d = _traction_powers(y, tr, w, w.fcons, w.fprev)
+    half = 0.5 * h
+    e[E_MOTOR] += half * (pw[PW_START, E_MOTOR] + held_m)
+    e[E_DYN] += half * (pw[PW_START, E_DYN] + held_d)
+    pw[PW_START, E_MOTOR] = motor
+    pw[PW_START, E_DYN] = dyn
+    for c in range(w.fcons.shape[0]):
+        w.fprev[c] = w.fcons[c]
+    _powers(y, tr, w, PW_END if keep_end else -1, True)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
 def _energy_totals(h, w):
     """The energy totals of :func:`run` at the state just accounted
-    (:func:`_account_fixed`, which left its powers in ``w.pw[PW_END]``) into
+    (:func:`_account_first` or :func:`_account_step`, which left its powers in
+    ``w.pw[PW_END]``) into
     ``w.energy`` (J): each continuous power's running sum over the grid of step ``h``
     (s) less half its first and its latest sample, times ``h`` (the trapezoids' sum);
     the traction terms are summed step by step."""
@@ -121,14 +156,16 @@ def _energy_totals(h, w):
 
 @njit(cache=True, _nrt=False, forceinline=True)
 def _energy_rates(y, tr, w, dy):
-    """For :func:`run_adaptive`: the powers (:func:`_powers`, W) as the rates of the
+    """For :func:`run_adaptive`: the powers (:func:`_traction_powers`, :func:`_powers`, W) as the rates of the
     energy states at ``y[ez:]`` (the trac slot ``T_EZ``; nothing when it is -1), which
     the embedded pair integrates with the motion, stage by stage: its steps are long,
     and a coupler's impact inside one is seen only by its stages."""
     ez = int(tr.trac[T_EZ])
     if ez < 0:
         return
-    _powers(y, tr, w, PW_START)
     pw = w.pw
+    pw[PW_START, E_MOTOR], pw[PW_START, E_DYN], _, _ = _traction_powers(y, tr, w, w.fcons,
+                                                                        w.fcons)
+    _powers(y, tr, w, PW_START, False)
     for q in range(pw.shape[1]):
         dy[ez + q] = pw[PW_START, q]

@@ -16,7 +16,7 @@ from numba import njit
 from ltdsim.engine.couplers import P_F0, P_RATE
 from ltdsim.engine.kernel.brakes import _air_cut, _air_interpolate, _air_start, _air_step
 from ltdsim.engine.kernel.driver import _brake_commands, _controller, _sample_due
-from ltdsim.engine.kernel.energy import _account_fixed, _energy_totals
+from ltdsim.engine.kernel.energy import _account_first, _account_step, _energy_totals
 from ltdsim.engine.kernel.recording import _record, _track_peaks
 from ltdsim.engine.kernel.rhs import _train_rhs, _train_rhs_split, rhs, rhs_split
 from ltdsim.engine.kernel.rk import (
@@ -86,7 +86,12 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         rhs(t, y, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
         _track_peaks(force, peaks, n - 1, t)
         if energy:  # the work of the step that ended here, from the powers at its ends
-            _account_fixed(k == 0, dt, y, tr, w)
+            if k == 0:
+                _account_first(y, tr, w)
+            elif c_rec == 0:
+                _account_step(dt, y, tr, w, True)
+            else:
+                _account_step(dt, y, tr, w, False)
         if c_rec == 0:
             if energy:
                 _energy_totals(dt, w)
@@ -105,7 +110,10 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         rhs(t, y, st["a_dem"], st["n_events"], tr, cp, dr, ctl.events, w, K[0:ny])
         _track_peaks(force, peaks, n - 1, t)
         if energy:
-            _account_fixed(k_stop == 0, dt, y, tr, w)
+            if k_stop == 0:
+                _account_first(y, tr, w)
+            else:
+                _account_step(dt, y, tr, w, True)
             _energy_totals(dt, w)
         _record(k_stop // record_every, t, y, K, st["a_dem"], st["level"], speed_mode, tr,
                 dr, w, out)
