@@ -2,6 +2,7 @@
 refused in one line naming the key and the relation (issue 37); a file the scenario
 reader cannot take for what it is says what it is."""
 
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -180,3 +181,151 @@ def test_a_motor_key_given_as_text_says_number_and_what_was_given(tmp_path):
     text = edit((SCENARIOS / "paper-induction.toml").read_text(), "[traction.motor]",
                 '[traction.motor]\nrated_power = "8.5e5"')
     refused(tmp_path, text, rf"traction\.motor: rated_power: {NUMBER} \(got \"8\.5e5\"\)")
+
+
+# ------------------------------------------------- keys that would have no effect
+TWO = (SCENARIOS / "two-wagons-linear.toml").read_text()  # force mode, lumped brake, rk4
+FORCE_MODE = 'mode = "force"'
+
+
+@pytest.mark.parametrize("text, key, why, reader", [
+    (SHORT + '\n[brake]\nmodel = "lumped"\n[brake.fluid]\nvalve = "uic-g"\n', "brake.fluid",
+     r"the lumped brake \(brake\.model = 'lumped'\) has no brake pipe or valves",
+     r"\[brake\.fluid\] is read by the fluid brake: set brake\.model = 'fluid'"),
+    (SHORT + "\n[brake.air]\ntemperature = 280.0\n", "brake.air",
+     r"the lumped brake \(brake\.model = 'lumped'\) has no brake pipe or valves",
+     r"\[brake\.air\] is read by the fluid brake"),
+    (edit(UIC, "[brake.fluid]", "propagation_speed = 280.0\n[brake.fluid]"),
+     "brake.propagation_speed", r"under the fluid brake \(brake\.model = 'fluid'\), where "
+     r"the pipe's air flow carries the signal", r"read by the lumped brake"),
+    (edit(SHORT, "adhesion_mass = 3.9e5", "adhesion_mass = 3.9e5\n[traction.motor]\n"
+                                          "per_locomotive = 4"), "traction.motor",
+     r"no consist uses the induction drive \(traction\.drive = 'curve' and no "
+     r"\[\[locomotives\]\] drive = 'induction'\)",
+     r"\[traction\.motor\] is read by the induction drive: set traction\.drive = "
+     r"'induction'"),
+    (edit(SHORT, "adhesion_mass = 3.9e5", 'adhesion_mass = 3.9e5\ncreep = { rail = "wet" }'),
+     "traction.creep", r"no consist uses the induction drive", r"\[traction\.creep\] is "
+                                                               r"read by the induction drive"),
+    (edit(SHORT, 'mode = "speed"', 'mode = "speed"\nforce_profile = [[0.0, 1e5]]'),
+     "driver.force_profile", r"in driver\.mode = 'speed'",
+     r"force_profile is read in mode 'force': set driver\.mode = 'force'"),
+    (edit(TWO, FORCE_MODE, FORCE_MODE + "\nnotch_profile = [[0.0, 4.0]]"),
+     "driver.notch_profile", r"in driver\.mode = 'force'", r"read in mode 'notch'"),
+    (edit(TWO, FORCE_MODE, FORCE_MODE + "\nspeed_profile = [[0.0, 0.0], [10.0, 5.0]]"),
+     "driver.speed_profile", r"in driver\.mode = 'force'", r"read in mode 'speed'"),
+    (edit(TWO, FORCE_MODE, FORCE_MODE + "\npid = { kp = 1.0 }"), "driver.pid",
+     r"in driver\.mode = 'force'", r"pid is read in mode 'speed'"),
+    (edit(TWO, "output_interval = 1e-3", "output_interval = 1e-3\nrtol = 1e-4"),
+     "solver.rtol", r"with method = 'rk4' \(a fixed step\)",
+     r"rtol is read by the adaptive method: set solver\.method = 'bs23'"),
+    (edit(SHORT, 'couplers = "stretched"', 'couplers = "stretched"\nspeed = 5.0\n'
+                                           'velocities = [1.0, 1.0, 1.0, 1.0, 1.0]'),
+     "initial.speed", r"initial\.velocities gives each vehicle's initial speed",
+     r"give one of speed \(the whole train\) and velocities"),
+])
+def test_a_key_that_would_have_no_effect_is_refused(tmp_path, text, key, why, reader):
+    refused(tmp_path, text, rf"bad\.toml: {key.replace('.', '[.]')}: has no effect.*{why}"
+                            rf".*{reader}")
+
+
+def test_a_lumped_brake_refuses_the_fluid_brake_s_vehicle_keys_once_for_a_group(tmp_path):
+    text = edit(SHORT, "count = 4\nmass = 90000.0", "count = 4\nmass = 90000.0\nbrake = "
+                       "{ cylinder_force = 3e4, rigging_ratio = 6.0, piston_area = 0.1 }")
+    refused(tmp_path, text, r"vehicles\.1\.brake\.piston_area: has no effect \(vehicle 2 "
+                            r"from the lead\): the lumped brake .* takes cylinder_force; "
+                            r"piston_area is read by the fluid brake")
+
+
+@pytest.mark.parametrize("names, match", [
+    ('"velocity", "brake_pipe_pressure"',
+     r"names brake_pipe_pressure \(recorded by the fluid brake, brake\.model = 'fluid'\), "
+     r"which this train does not produce: leave it out"),
+    ('"velocity", "auxiliary_reservoir_pressure", "stator_current"',
+     r"names auxiliary_reservoir_pressure \(recorded by the fluid brake, brake\.model = "
+     r"'fluid'\), stator_current \(recorded by an induction drive, traction\.drive = "
+     r"'induction'\), which this train does not produce: leave them out")])
+def test_a_recorded_variable_the_train_does_not_produce_is_refused(tmp_path, names, match):
+    text = edit(SHORT, "output_interval = 1e-3", f"output_interval = 1e-3\nrecord = [{names}]")
+    refused(tmp_path, text, r"solver\.record: " + match)
+    text = edit(UIC, "output_interval = 0.05", 'output_interval = 0.05\nrecord = '
+                                               '["velocity", "brake_pipe_pressure"]')
+    ltdsim.load_scenario(write(tmp_path, text, "fluid.toml"))  # the fluid brake records it
+
+
+def test_a_consist_on_the_induction_drive_reads_the_motor_and_creep_tables():
+    # traction.drive = "curve", the lead consist's drive = "induction"
+    sc = ltdsim.load_scenario(SCENARIOS / "heavy-haul-wet-start.toml")
+    assert sc.traction.drive == "curve" and sc.locomotives[0].drive == "induction"
+
+
+def test_a_key_a_case_reads_is_not_refused_in_the_file(tmp_path):
+    base = edit(TWO, FORCE_MODE, FORCE_MODE + "\npid = { kp = 1.0 }")
+    text = base + ('\n[cases.speed]\n"driver.mode" = "speed"\n'
+                   '"driver.speed_profile" = [[0.0, 0.0], [10.0, 5.0]]\n')
+    sc = ltdsim.load_scenario(write(tmp_path, text, "cased.toml"), case="speed")
+    assert sc.driver.mode == "speed" and sc.driver.pid.kp == 1.0
+    # without the case that reads it, the key is refused
+    refused(tmp_path, base + '\n[cases.slow]\n"solver.t_end" = 10.0\n', r"driver\.pid: has "
+                                                                         r"no effect")
+
+
+def test_schema_defaults_and_a_case_switching_modes_do_not_count_as_given():
+    # heavy-haul's emergency case drives in force mode, its file's pid is the speed mode's;
+    # every shipped scenario and case loads (the schema fills brake.fluid, traction.motor,
+    # every profile without them being given)
+    for path in sorted(SCENARIOS.glob("*.toml")):
+        if "sweep" in path.name:
+            continue
+        sc = ltdsim.load_scenario(path)
+        for name in sc.cases:
+            ltdsim.load_scenario(path, case=name)
+    sc = ltdsim.load_scenario(SCENARIOS / "heavy-haul.toml", case="emergency")
+    assert sc.driver.mode == "force" and sc.driver.pid is not None
+
+
+def test_the_shipped_sweep_and_its_overrides_load():
+    from ltdsim.sweep.core import load_sweep
+
+    sweep = load_sweep(SCENARIOS / "heavy-haul-brakes-sweep.toml")
+    assert [sweep.scenario(c).brake.mode for c in sweep.cases] == ["pneumatic"] * 3 + ["ecp"]
+
+
+@pytest.mark.parametrize("key, value, match", [
+    ("brake.fluid.leakage", "1e-6", r"brake\.fluid: has no effect: the lumped brake"),
+    ("driver.force_profile", "[[0.0, 1e5]]", r"driver\.force_profile: has no effect in "
+                                             r"driver\.mode = 'speed'"),
+    ("traction.motor.per_locomotive", "4", r"traction\.motor: has no effect: no consist "
+                                           r"uses the induction drive")])
+def test_an_override_that_would_have_no_effect_is_refused(key, value, match):
+    sc = ltdsim.load_scenario(SCENARIOS / "short-train.toml")
+    with pytest.raises(ScenarioError, match=r"^--set: " + match):
+        sc.with_overrides({key: tomllib.loads(f"v = {value}")["v"]},
+                          source="--set")
+    text = cli_refused("run", SCENARIOS / "short-train.toml", "--set", f"{key}={value}")
+    assert "--set" in text and "has no effect" in text
+
+
+# ---------------------------------------------------------------- the case key
+def test_a_case_key_naming_a_case_the_file_lacks_is_refused_listing_its_cases(tmp_path):
+    text = edit(SHORT, 'name = "short-train"', 'name = "short-train"\ncase = "X"')
+    text += '\n[cases.slow]\n"solver.t_end" = 10.0\n[cases.fast]\n"solver.t_end" = 5.0\n'
+    refused(tmp_path, text, r"bad\.toml: case: 'X' is not a case of this scenario \(its "
+                            r"cases: fast, slow\); case names the case applied by --case")
+
+
+def test_a_case_key_naming_one_of_the_file_s_cases_is_refused_too(tmp_path):
+    text = edit(SHORT, 'name = "short-train"', 'name = "short-train"\ncase = "slow"')
+    text += '\n[cases.slow]\n"solver.t_end" = 10.0\n'
+    refused(tmp_path, text, r"bad\.toml: case: names the case applied, set by --case NAME, "
+                            r"which applies the case's overrides; given as a key it would "
+                            r"only relabel the run \(the cases: slow\)")
+
+
+@pytest.mark.parametrize("name", ["X", "LHHL"])
+def test_set_case_is_refused_listing_the_cases(name):
+    paper = SCENARIOS / "paper.toml"
+    with pytest.raises(ScenarioError, match=r"--set: case: names the case applied"):
+        ltdsim.load_scenario(paper).with_overrides({"case": name}, source="--set")
+    text = cli_refused("run", paper, "--set", f"case={name}")
+    assert "would only relabel the run" in text and "LHHL" in text

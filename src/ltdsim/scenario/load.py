@@ -12,6 +12,7 @@ from pathlib import Path
 from ltdsim.errors import ScenarioError
 
 from ltdsim.scenario.model import Scenario
+from ltdsim.scenario.unused import first_of_each, no_effect, written
 
 
 # ---------------------------------------------------------------------- loading
@@ -91,12 +92,21 @@ def read_profile(path: str | Path, source: str) -> list[list[float]]:
 
 def scenario_from_data(data: dict, source: str, case: str | None = None) -> Scenario:
     """:func:`load_scenario` of a table already read (``source`` names it in messages):
-    the scenario and every case validated, ``case`` applied."""
+    the scenario and every case validated, ``case`` applied. A key given that would have
+    no effect in the scenario and in every case (:mod:`ltdsim.scenario.unused`) is
+    refused, and so is a ``case`` key (``--case`` chooses the case)."""
     scenario = Scenario.from_dict(data, source)
-    for name in scenario.cases:
-        scenario.with_case(name, source)
+    if "case" in data:
+        raise ScenarioError(source, [("case", scenario._case_key())])
+    cases = {name: scenario.with_case(name, source) for name in scenario.cases}
+    unused = [(k, m) for k, m in no_effect(scenario) if written(scenario, k)]
+    for other in cases.values():  # a key a case reads is not without effect
+        keys = {k for k, _ in no_effect(other)}
+        unused = [(k, m) for k, m in unused if k in keys]
+    if unused:
+        raise ScenarioError(source, first_of_each(unused))
     if case is not None:
-        scenario = scenario.with_case(case, source)
+        scenario = cases[case] if case in cases else scenario.with_case(case, source)
     return scenario
 
 
