@@ -15,13 +15,20 @@ from pydantic import (
 from ltdsim.data import load_preset, preset_names
 
 from ltdsim.scenario._base import _Strict
+from ltdsim.scenario.messages import _TYPE_MESSAGES, _toml
+
+
+#: the valves' keys that take text (every other key is a number)
+_VALVE_TEXT_KEYS = ("family",)
 
 
 def valve_tables(fluid: "FluidBrake") -> tuple[dict, dict]:
     """The ``[control_valve]`` and ``[driver_valve]`` tables of ``brake.fluid.valve``: a
     preset's, or an inline table's keys over its ``preset`` (if any); each checked by
     the valves' row builders. Raises ``ValueError`` in one line naming the key."""
-    from ltdsim.physics.air.brakevalves import control_valve_row, driver_valve_row
+    from ltdsim.physics.air.brakevalves import (CV_PARAMS, DV_PARAMS, _CV_ORIFICES,
+                                                _DV_ORIFICES, control_valve_row,
+                                                driver_valve_row)
 
     valve = fluid.valve
     if isinstance(valve, str):
@@ -39,10 +46,21 @@ def valve_tables(fluid: "FluidBrake") -> tuple[dict, dict]:
                              f"{', '.join(names) or 'none (this install lacks its package data)'}")
         base = load_preset("brakes", name)
     tables = []
+    known = {"control_valve": {*CV_PARAMS, *_CV_ORIFICES, "discharge_coefficient"},
+             "driver_valve": {*DV_PARAMS, *_DV_ORIFICES, "discharge_coefficient"}}
     for key in ("control_valve", "driver_valve"):
         own = valve.get(key, {})
         if not isinstance(own, dict):
             raise ValueError(f"brake.fluid.valve.{key}: must be a table")
+        for name, value in own.items():  # the row builders read a string as 'not given'
+            if name not in known[key]:
+                continue  # (refused by the row builder, with the keys allowed)
+            want = _TYPE_MESSAGES["string_type" if name in _VALVE_TEXT_KEYS else "float_type"]
+            number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if (name in _VALVE_TEXT_KEYS) != isinstance(value, str) or (
+                    name not in _VALVE_TEXT_KEYS and not number):
+                raise ValueError(f"brake.fluid.valve.{key}.{name}: {want} (got "
+                                 f"{_toml(value)})")
         merged = {**base.get(key, {}), **own}
         tables.append(merged)
     cv, dv = tables
