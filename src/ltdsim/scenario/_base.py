@@ -8,9 +8,11 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
+    ValidationError,
 )
 
 from ltdsim.errors import ScenarioError
@@ -61,6 +63,53 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
     if bad:
         raise ValueError(f"the second column must be {allowed}, got {bad}")
     return points
+
+
+def _show(value: float, unit: str) -> str:
+    """A value with its unit as a message writes it; a pressure (Pa) also in bar."""
+    if unit == "Pa" or unit.startswith("Pa "):  # (Pa gauge: "5e+05 Pa (5 bar) gauge")
+        return f"{value:g} Pa ({value / 1e5:g} bar){unit[2:]}"
+    return f"{value:g} {unit}"
+
+
+def quantity(lo: float, hi: float, unit: str, *, zero: bool = False, why: str = ""):
+    """A number (strict: a TOML integer or float) within ``[lo, hi]`` in ``unit``, or with
+    ``zero`` also exactly 0 (none: no such volume, orifice or stage). A value outside is
+    refused in one line naming the range with its unit and ``why`` (the range's
+    reading or its source)."""
+    def check(value: float) -> float:
+        if (zero and value == 0.0) or lo <= value <= hi:
+            return value
+        rng = f"{_show(lo, unit)} to {_show(hi, unit)}" + (" (or 0: none)" if zero else "")
+        raise ValueError(f"must be within {rng}, got {_show(value, unit)}"
+                         + (f" ({why})" if why else ""))
+    return Annotated[float, AfterValidator(check)]
+
+
+def first_problem(exc: ValidationError, prefix: str = "", model=None) -> str:
+    """The first problem of ``exc`` as one line, ``prefix`` + the dotted key + its
+    message in TOML's words (a wrong type, an unknown key with the keys ``model``
+    allows, a missing key, a range); a problem of the whole table (a relation between
+    its keys) is its message alone."""
+    from ltdsim.scenario.messages import _TYPE_MESSAGES, _toml
+
+    err = exc.errors()[0]
+    key = prefix + ".".join(str(p) for p in err["loc"])
+    msg = err["msg"].removeprefix("Value error, ")
+    if err["type"] in _TYPE_MESSAGES:
+        msg = f"{_TYPE_MESSAGES[err['type']]} (got {_toml(err['input'])})"
+    elif err["type"] == "extra_forbidden":
+        msg = "unknown key" + (f"; allowed: {', '.join(model.model_fields)}" if model else "")
+    elif err["type"] == "missing":
+        msg = "required key is missing"
+    elif err["type"] == "finite_number":
+        msg = "must be a finite number (NaN and inf are not allowed)"
+    elif err["type"] in ("literal_error", "greater_than", "greater_than_equal", "less_than",
+                         "less_than_equal"):
+        msg = f"{msg} (got {_toml(err['input'])})"
+    if not err["loc"]:
+        return f"{prefix.rstrip('.') + ': ' if prefix else ''}{msg}"
+    return f"{key}: {msg}"
 
 
 def _set_dotted(data: dict, key: str, value: Any, source: str) -> None:
