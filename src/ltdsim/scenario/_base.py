@@ -69,7 +69,7 @@ def _show(value: float, unit: str) -> str:
     """A value with its unit as a message writes it; a pressure (Pa) also in bar."""
     if unit == "Pa" or unit.startswith("Pa "):  # (Pa gauge: "5e+05 Pa (5 bar) gauge")
         return f"{value:g} Pa ({value / 1e5:g} bar){unit[2:]}"
-    return f"{value:g} {unit}"
+    return f"{value:g}" if unit == "-" else f"{value:g} {unit}"
 
 
 def quantity(lo: float, hi: float, unit: str, *, zero: bool = False, why: str = ""):
