@@ -15,7 +15,8 @@ from pydantic import (
 
 from ltdsim.data import load_preset, preset_names
 
-from ltdsim.scenario._base import _Strict, first_problem, quantity
+from ltdsim.scenario._base import _Strict, quantity
+from ltdsim.scenario.messages import first_problem
 
 # --- the valve tables' keys and their physical ranges ----------------------------------
 # Generous bounds around what air brakes are built with, so that a typing slip (a

@@ -16,7 +16,8 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ltdsim.data import load_preset
-from ltdsim.scenario._base import first_problem, quantity
+from ltdsim.scenario._base import quantity
+from ltdsim.scenario.messages import first_problem
 
 # Each key's physical range: generous bounds around traction motors as they are built,
 # so that a slip of units or a typing error (a 1 V DC link, a 1e-9 H inductance) is

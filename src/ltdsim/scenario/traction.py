@@ -19,7 +19,8 @@ from pydantic import (
 from ltdsim.scenario.creep import Creep
 from ltdsim.data import preset_names
 
-from ltdsim.scenario._base import Points, _Strict, _check_table, first_problem
+from ltdsim.scenario._base import Points, _Strict, _check_table
+from ltdsim.scenario.messages import first_problem
 
 
 class TractionMotor(BaseModel):
