@@ -20,7 +20,7 @@ from ltdsim.scenario.creep import Creep
 from ltdsim.data import preset_names
 
 from ltdsim.scenario._base import Points, _Strict, _check_table
-from ltdsim.scenario.messages import _TYPE_MESSAGES, _toml
+from ltdsim.scenario.messages import first_problem
 
 
 class TractionMotor(BaseModel):
@@ -58,12 +58,7 @@ class TractionMotor(BaseModel):
         try:
             return Motor(**{**base, **extra})
         except ValidationError as exc:
-            err = exc.errors()[0]
-            key = ".".join(str(x) for x in err["loc"]) or "(table)"
-            msg = err["msg"]
-            if err["type"] in _TYPE_MESSAGES:  # TOML's words, and what was given
-                msg = f"{_TYPE_MESSAGES[err['type']]} (got {_toml(err['input'])})"
-            raise ValueError(f"{key}: {msg}") from None
+            raise ValueError(first_problem(exc, model=Motor)) from None
 
 
 class Traction(_Strict):
