@@ -336,7 +336,7 @@ def modal(
     try:  # (checked before the work; a disk that fills up meanwhile still fails here)
         output.mkdir(parents=True, exist_ok=True)
         write_csv(shapes, output / names[0], index=True)
-        save_mode_shapes(table, output / names[1], title=what)
+        save_mode_shapes(table, output / names[1], title=what, table_numbers=True)
     except OSError as exc:
         from rich.markup import escape
 
