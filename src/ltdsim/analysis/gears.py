@@ -196,16 +196,45 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
     def loading(n):
         return preload + (force - preload) * (x / travel) ** n
 
-    n = brentq(lambda n: np.trapezoid(loading(n), x) - capacity, 1e-6, 1e3, xtol=1e-12)
+    # the exponent n of the loading curve that closes with the capacity; the range of
+    # n searched bounds the capacities a table of these points can hold (its root
+    # finder's own words would mean nothing to whoever gave the ratings)
+    n_lo, n_hi = 1e-6, 1e3
+    most, least = (float(np.trapezoid(loading(k), x)) for k in (n_lo, n_hi))
+    if not least < capacity < most:
+        raise ValueError(f"capacity must lie between {least:.6g} and {most:.6g} J for this "
+                         f"travel, force and preload (the loading curve a power of the "
+                         f"deflection, exponent {n_lo:g} to {n_hi:g}, over {points} table "
+                         f"points; got {capacity:.10g})")
+    n = brentq(lambda n: np.trapezoid(loading(n), x) - capacity, n_lo, n_hi, xtol=1e-12)
     f_l = loading(n)
     # the locked line gives back about F^2 / (2 k_locked); keep that within half of
     # (1 - a) E so that an unloading curve can take the rest
-    turn = min(turn, absorptivity * (1.0 - absorptivity) * capacity / (force * travel))
+    held = absorptivity * (1.0 - absorptivity) * capacity / (force * travel)
+    asked, turn = turn, min(turn, held)
     k_locked = absorptivity * force / (turn * travel)
+    k_max = _k_locked_max()
+    if k_locked > k_max and held < asked:  # (a nearly perfect absorber: k = F^2/((1-a)E))
+        a_max = 1.0 - force**2 / (k_max * capacity)
+        raise ValueError(f"absorptivity must be at most {a_max:.6g} for this force and "
+                         f"capacity: above it the gear's locked slope exceeds the {k_max:g} "
+                         f"N/m a table gear's k_locked may have (got {absorptivity:.10g})")
+    if k_locked > k_max:
+        raise ValueError(f"force {force:g} N over a travel of {travel:g} m gives the "
+                         f"gear a locked slope of {k_locked:.4g} N/m, above the {k_max:g} "
+                         "N/m a table gear's k_locked may have: lower the force or give "
+                         "a longer travel")
     # the unloading curve c f_l: c such that the release, first along the locked line
     # from full travel down to the curve and then along it, gives back (1 - a) capacity
+    c_hi = 1.0 - 1e-9
+    back = [_release_work(x, f_l, c, k_locked) / capacity for c in (0.0, c_hi)]
+    if not back[0] <= 1.0 - absorptivity <= back[1]:
+        raise ValueError(f"absorptivity must lie between {1.0 - back[1]:.6g} and "
+                         f"{1.0 - back[0]:.6g} for these ratings (what the table's release "
+                         "can give back, from along its locked line alone to along its whole "
+                         f"loading curve; got {absorptivity:.10g})")
     c = brentq(lambda c: _release_work(x, f_l, c, k_locked) - (1.0 - absorptivity) * capacity,
-               0.0, 1.0 - 1e-9, xtol=1e-12)
+               0.0, c_hi, xtol=1e-12)
     f_u = c * f_l
     return {
         "model": "table",
@@ -216,6 +245,14 @@ def table_from_ratings(travel: float, force: float, capacity: float, absorptivit
         "gears": int(series),
         "exponent": float(n),
     }
+
+
+def _k_locked_max() -> float:
+    """The largest ``k_locked`` (N/m) the scenario schema allows a table gear."""
+    from ltdsim.scenario.couplers import TableGear
+
+    return float(next(m.le for m in TableGear.model_fields["k_locked"].metadata
+                      if hasattr(m, "le")))
 
 
 def _release_work(x, f_l, c, k_locked, steps: int = 4000) -> float:

@@ -14,20 +14,171 @@ from ltdsim.errors import ScenarioError, SimulationError
 from ltdsim.cli.common import (
     COUPLER_COL, CaseOpt, QuietOpt, SetOpt, VEHICLE_COL, check_folder, check_number,
     check_output_files, console, err_console, fail, plain_table, result_or_scenario, say,
-    write_csv,
+    simulate_shown, write_csv,
 )
 
 
-def _phases_or_fail(ds, sc):
-    """Phase norms, or a ScenarioError when no declared phase overlaps the record."""
-    from ltdsim.analysis.phases import phase_norms
+def _analysed(file: Path, case, set_, quiet: bool, check):
+    """``(dataset, scenario)`` of ``file`` as :func:`result_or_scenario` gives them, with
+    ``check(scenario, record)`` refusing what the analysis cannot work on: for a scenario
+    file before it is simulated (``record`` then holds only the time axis the run will
+    record) and again on the record itself."""
+    if file.suffix == ".nc":
+        ds, sc = result_or_scenario(file, case, overrides=set_, quiet=quiet)
+    else:
+        _, sc = result_or_scenario(file, case, run=False, overrides=set_)
+        check(sc, _planned_record(sc))
+        ds = simulate_shown(sc, quiet, file, "--set" if set_ else None)
+    check(sc, ds)
+    return ds, sc
+
+
+def _planned_record(sc):
+    """The time axis (s) a run of ``sc`` records, as a dataset without variables."""
+    import numpy as np
+    import xarray as xr
+
+    sv = sc.solver
+    n = sv.n_steps // sv.record_every + 1
+    return xr.Dataset(coords={"time": np.arange(n) * (sv.record_every * sv.dt)})
+
+
+def _needs_couplers(file: Path, sc, command: str, why: str = "") -> None:
+    """Refuse a train without a coupler (one vehicle)."""
+    if sc.n_vehicles < 2:
+        raise ScenarioError(str(file), [("vehicles", f"ltdsim {command} needs at least 2 "
+                                                     f"vehicles (one coupler){why}; the "
+                                                     f"train has {sc.n_vehicles}")])
+
+
+def _windows(file: Path, sc, rec, step: bool = False):
+    """The phases (name, start s, end s) of the record ``rec``, refused when none of the
+    declared ones overlaps it; and the sampling interval of the record (s) when
+    ``step``."""
+    from ltdsim.analysis.phases import phases_of
+
+    t = rec.time.values
+    phases = phases_of(rec, sc)
+    if not phases:
+        names = ", ".join(f"{p.name} {p.start:g}-{p.end:g} s" for p in sc.phases)
+        raise ScenarioError(str(file), [("phases", f"no phase ({names}) overlaps the "
+                                                   f"record ({t[0]:g}-{t[-1]:g} s)")])
+    if not step:
+        return phases
+    if t.size < 2:
+        raise ScenarioError(str(file), [("solver.t_end", f"the record holds {t.size} "
+                                                         "sample; give a run of at least "
+                                                         "two output intervals")])
+    return phases, float(t[1] - t[0])
+
+
+def _window_key(sc) -> str:
+    """The scenario key that sets the analysis windows."""
+    return "phases" if sc.phases else "solver.t_end"
+
+
+def _check_finite(file: Path, ds, var: str, command: str, columns=None,
+                  dim: str = "") -> None:
+    """Refuse a recorded ``var`` (of the ``columns`` of ``dim``, 0-based) that holds a
+    value that is not finite, naming the first such sample (time, coupler or vehicle
+    counted from 1)."""
+    import numpy as np
+
+    if var not in ds:
+        return  # (the analysis names what it misses itself)
+    x = ds[var].values
+    if x.ndim == 2 and columns is not None:
+        x = x[:, list(columns)]
+    bad = ~np.isfinite(x)
+    if not bad.any():
+        return
+    k = int(np.argmax(bad.reshape(bad.shape[0], -1).any(axis=1)))
+    where = f"t = {float(ds.time.values[k]):g} s"
+    if x.ndim == 2:
+        j = int(np.argmax(bad[k]))
+        number = (list(columns)[j] if columns is not None else j) + 1
+        where += f", {dim} {number}"
+        value = x[k, j]
+    else:
+        value = x[k]
+    raise ScenarioError(str(file), [(var, f"not finite ({value}) at {where} (the first such "
+                                          f"sample); ltdsim {command} needs finite values: "
+                                          "simulate the scenario again")])
+
+
+#: the record the analysis commands leave in their output folder: the files they wrote
+#: there, each with its size and content hash, so that running again into the folder
+#: replaces them while a file of someone else's is never written over
+WRITTEN = "ltdsim-analysis-files.json"
+
+
+def _own_files(folder: Path) -> dict:
+    """The files of ``folder`` the analyses wrote and that are unchanged since: name ->
+    record (size and hash)."""
+    from ltdsim.results.io import file_problem, read_sealed
 
     try:
-        return phase_norms(ds, sc)
-    except ValueError:
-        names = ", ".join(f"{p.name} {p.start:g}-{p.end:g} s" for p in sc.phases)
-        raise ScenarioError("phases", [("", f"no phase ({names}) overlaps the record "
-                                            f"(0-{float(ds.time[-1]):g} s)")]) from None
+        rec = read_sealed(folder / WRITTEN)
+    except (FileNotFoundError, NotADirectoryError, ValueError):
+        return {}
+    files = rec.get("files") if isinstance(rec, dict) else None
+    if not isinstance(files, list):
+        return {}
+    return {f["path"]: f for f in files if isinstance(f, dict)
+            and isinstance(f.get("path"), str) and Path(f["path"]).name == f["path"]
+            and file_problem(f, folder) is None}
+
+
+def check_outputs(folder: Path, names, command: str, option: str = "--output") -> None:
+    """Refuse, before any work, a name the command writes in ``folder`` (each of
+    ``names``, and the record of written files) that is taken by a folder, or by a file
+    an analysis did not write there (or that changed since)."""
+    from ltdsim.results.io import read_sealed
+
+    check_output_files(folder, (*names, WRITTEN), option)
+    record = folder / WRITTEN
+    if record.is_file():
+        try:
+            read_sealed(record)
+        except ValueError:
+            raise ScenarioError(option, [("", f"{record} is not the record of files ltdsim "
+                                              f"writes there; ltdsim {command} does not "
+                                              "write over it: move or remove it, or choose "
+                                              f"another {option}")]) from None
+    own = _own_files(folder)
+    for name in names:
+        if (folder / name).is_file() and name not in own:
+            raise ScenarioError(option, [("", f"{folder / name} exists and is not a file an "
+                                              f"earlier ltdsim {command} wrote there (or it "
+                                              f"changed since); ltdsim {command} does not "
+                                              "write over it: move or remove it, or choose "
+                                              f"another {option}")])
+
+
+def record_outputs(folder: Path, paths) -> None:
+    """Add the files just written (``paths`` in ``folder``) to the folder's record."""
+    from ltdsim.results.io import atomic_path, file_record, sealed_json
+
+    own = _own_files(folder)
+    for path in paths:
+        own[Path(path).name] = file_record(path, folder)
+    with atomic_path(folder / WRITTEN) as tmp:
+        tmp.write_text(sealed_json({"written_by": "ltdsim phases, spectrum, sysid",
+                                    "files": [own[k] for k in sorted(own)]}))
+
+
+def _written_or_fail(write) -> None:
+    """Run ``write()`` (the outputs, checked before the work); a disk that fills up
+    meanwhile is one line, exit code 3."""
+    try:
+        write()
+    except OSError as exc:
+        from rich.markup import escape
+
+        err_console.print(f"[bold red]error (writing failed):[/] "
+                          f"{escape(str(exc.filename or exc))}: "
+                          f"{escape(exc.strerror or str(exc))}", highlight=False, soft_wrap=True)
+        raise typer.Exit(3) from None
 
 
 def phases(
@@ -42,19 +193,32 @@ def phases(
 
     The phases are the scenario's phases tables; without them the whole run is one
     phase."""
-    from ltdsim.analysis.phases import critical_couplers, traction_check
+    from ltdsim.analysis.phases import critical_couplers, phase_norms, traction_check
     from ltdsim.viz.analysis import phase_figures
+
+    def check(sc, rec):
+        import numpy as np
+
+        _needs_couplers(file, sc, "phases", ": it ranks the couplers")
+        t = rec.time.values
+        for name, a, b in _windows(file, sc, rec):
+            if np.searchsorted(t, b, "right") == np.searchsorted(t, a, "left"):
+                raise ScenarioError(str(file), [("phases", f"phase {name} ({a:g}-{b:g} s) "
+                                                           "holds no recorded sample (one "
+                                                           f"every {t[1] - t[0]:g} s); its "
+                                                           "norms need at least 1: widen it "
+                                                           "or lower solver.output_interval")])
 
     try:
         check_folder(output)
-        ds, sc = result_or_scenario(file, case, overrides=set_, quiet=quiet)
-        norms = _phases_or_fail(ds, sc)
+        check_outputs(output, PHASES_FILES, "phases")
+        ds, sc = _analysed(file, case, set_, quiet, check)
     except (ScenarioError, SimulationError) as exc:
         fail(exc)
         return
+    norms = phase_norms(ds, sc)
     ranking = critical_couplers(norms)
     check = traction_check(ds, sc)
-    output.mkdir(parents=True, exist_ok=True)
 
     def long(dim, var, unit, col):
         frame = norms[[f"{var}_{k}" for k in ("2norm", "infnorm", "rms")]].to_dataframe()
@@ -65,12 +229,21 @@ def phases(
                                                   for k in ("2norm", "infnorm", "rms")}})
 
     ranked = ranking.assign(coupler=ranking.coupler + 1).rename(columns={"coupler": COUPLER_COL})
-    for name, frame in (("phase_norms_couplers.csv", long("coupler", "coupler_force", "N",
-                                                          COUPLER_COL)),
-                        ("phase_norms_vehicles.csv", long("vehicle", "acceleration", "m_s2",
-                                                          VEHICLE_COL)),
-                        ("critical_couplers.csv", ranked), ("traction_check.csv", check)):
-        write_csv(frame, output / name)
+    figures = []
+
+    def write():
+        output.mkdir(parents=True, exist_ok=True)
+        tables = (("phase_norms_couplers.csv", long("coupler", "coupler_force", "N",
+                                                    COUPLER_COL)),
+                  ("phase_norms_vehicles.csv", long("vehicle", "acceleration", "m_s2",
+                                                    VEHICLE_COL)),
+                  ("critical_couplers.csv", ranked), ("traction_check.csv", check))
+        for name, frame in tables:
+            write_csv(frame, output / name)
+        figures.extend(phase_figures(ds, output, sc))
+        record_outputs(output, [output / name for name, _ in tables] + figures)
+
+    _written_or_fail(write)
     table = plain_table(f"Largest coupler force |F| per phase [kN], {file}"
                    + (f" [{sc.case}]" if sc.case else ""),
                    (COUPLER_COL, *(str(ph) for ph in norms.phase.values)))
@@ -90,8 +263,13 @@ def phases(
     console.print(crit)
     over = int(check.loc[check.phase == "whole run", "samples_demand_over_adhesion"].item())
     say(f"samples where traction demand exceeded adhesion: {over}")
-    files = phase_figures(ds, output, sc)
-    say(f"tables and {len(files)} figures written to {output}")
+    say(f"tables and {len(figures)} figures written to {output}")
+
+
+#: the files ``phases`` writes in its folder (ltdsim.viz.analysis.phase_figures' three)
+PHASES_FILES = ("phase_norms_couplers.csv", "phase_norms_vehicles.csv",
+                "critical_couplers.csv", "traction_check.csv", "fig5_relative_motion.png",
+                "fig6_forces.png", "fig7_traction_curve.png")
 
 
 def modal(
@@ -107,6 +285,8 @@ def modal(
 ) -> None:
     """Natural frequencies and mode shapes of the train (study Fig. 8), linearised as the
     kernel simulates each coupling (its gears in series included: the key gears)."""
+    from numpy.linalg import LinAlgError
+
     from ltdsim.analysis.modal import train_modes
     from ltdsim.viz.analysis import save_mode_shapes
 
@@ -126,7 +306,15 @@ def modal(
         names = (f"modes_{stiffness}.csv", f"mode_shapes_{stiffness}.png")
         check_output_files(output, names)
         _, sc = result_or_scenario(file, case, run=False, overrides=set_)
+        _needs_couplers(file, sc, "modal")
         table = train_modes(sc, which)
+    except LinAlgError as exc:  # (a ValueError: scipy's words are no option's)
+        fail(ScenarioError(str(file), [("", "the modes could not be computed: scipy's "
+                                            "eigensolver failed on the train's masses and "
+                                            "coupling stiffnesses ("
+                                            f"{' '.join(str(exc).split())}); check the "
+                                            "vehicles' masses and --stiffness")]))
+        return
     except (ScenarioError, ValueError) as exc:
         fail(exc if isinstance(exc, ScenarioError) else
               ScenarioError("--stiffness", [("", str(exc))]))
@@ -148,7 +336,7 @@ def modal(
     try:  # (checked before the work; a disk that fills up meanwhile still fails here)
         output.mkdir(parents=True, exist_ok=True)
         write_csv(shapes, output / names[0], index=True)
-        save_mode_shapes(table, output / names[1], title=what)
+        save_mode_shapes(table, output / names[1], title=what, table_numbers=True)
     except OSError as exc:
         from rich.markup import escape
 
@@ -176,44 +364,79 @@ def spectrum(
     quiet: QuietOpt = False,
 ) -> None:
     """Coupler force spectra per phase (study Tables 6-7) and a spectrogram."""
+    import math
+
+    import numpy as np
+
     from ltdsim.analysis.spectra import phase_spectra
     from ltdsim.viz.analysis import spectra_figures
 
     try:
-        check_folder(output)
         numbers = None if couplers is None else [int(c) for c in couplers.split(",")
                                                  if c.strip()]
         if numbers is not None and not numbers:
             raise ValueError
-        if file.suffix != ".nc":  # refuse bad numbers before simulating
-            from ltdsim.scenario import load_scenario
-
-            check_couplers(numbers, load_scenario(file, case=case).n_couplers)
-        ds, sc = result_or_scenario(file, case, overrides=set_, quiet=quiet)
-        nc = ds.sizes["coupler"]
-        check_couplers(numbers, nc)
-        if numbers is None:
-            numbers = sorted({min(c, nc) for c in STUDY_COUPLERS})
-    except (ScenarioError, SimulationError) as exc:  # (a ScenarioError is a ValueError)
-        fail(exc)
-        return
     except ValueError:
         fail(ScenarioError("--couplers", [("", f"not a list of coupler numbers: {couplers!r}")]))
         return
-    which = tuple(c - 1 for c in numbers)  # the library counts from 0
-    table = phase_spectra(ds, sc, which)
-    output.mkdir(parents=True, exist_ok=True)
+    which = []  # the couplers analysed, from 0 (the library's count)
+
+    def check(sc, rec):
+        _needs_couplers(file, sc, "spectrum", ": it analyses coupler forces")
+        nc = sc.n_couplers
+        check_couplers(numbers, nc)
+        which[:] = [c - 1 for c in (numbers or sorted({min(c, nc) for c in STUDY_COUPLERS}))]
+        phases, dt = _windows(file, sc, rec, step=True)
+        # lines 1 / (n dt) apart: the first above 0 Hz within the band, and 3 samples for
+        # the straight line removed first (two always lie on it)
+        need = max(3, math.ceil(1.0 / (SPECTRUM_BAND_HZ * dt) - 1e-9))
+        t = rec.time.values
+        for name, a, b in phases:
+            n = int(np.searchsorted(t, b - 0.5 * dt, "right") - np.searchsorted(t, a, "left"))
+            if n < need:
+                what = f"phase {name}" if sc.phases else "the whole run"
+                hint = "widen the phase or give a longer run" if sc.phases else \
+                    "give a longer run"
+                raise ScenarioError(str(file), [(_window_key(sc), (
+                    f"{what} ({a:g}-{b:g} s) holds {n} samples (one every {dt:g} s); a "
+                    f"spectrum to {SPECTRUM_BAND_HZ:g} Hz needs at least {need} "
+                    f"({need * dt:g} s): its first line above 0 Hz, at 1/(samples x "
+                    "interval), must lie within the band, and the linear trend removed "
+                    f"first leaves nothing of fewer than 3; {hint}"))])
+        _check_finite(file, rec, "coupler_force", "spectrum", which, "coupler")
+
+    try:
+        check_folder(output)
+        check_outputs(output, SPECTRUM_FILES, "spectrum")
+        ds, sc = _analysed(file, case, set_, quiet, check)
+    except (ScenarioError, SimulationError) as exc:
+        fail(exc)
+        return
+    table = phase_spectra(ds, sc, tuple(which), f_max=SPECTRUM_BAND_HZ)
     table["coupler"] = table["coupler"] + 1
-    write_csv(table.rename(columns={"coupler": COUPLER_COL}), output / "phase_spectra.csv")
-    out = plain_table("Coupler force spectra, 0-10 Hz",
+    files = []
+
+    def write():
+        output.mkdir(parents=True, exist_ok=True)
+        write_csv(table.rename(columns={"coupler": COUPLER_COL}), output / SPECTRUM_FILES[0])
+        files.extend(spectra_figures(ds, output, sc, tuple(which), f_max=SPECTRUM_BAND_HZ))
+        record_outputs(output, [output / SPECTRUM_FILES[0], *files])
+
+    _written_or_fail(write)
+    out = plain_table(f"Coupler force spectra, 0-{SPECTRUM_BAND_HZ:g} Hz",
                  ("phase", COUPLER_COL, "max [kN]", "at [Hz]", "band RMS [kN]", "main peaks"),
                  justify="left")
     for r in table.itertuples():
         out.add_row(r.phase, str(r.coupler), f"{r.max_N / 1e3:.1f}", f"{r.f_at_max_hz:.1f}",
                     f"{r.band_rms_N / 1e3:.1f}", r.peaks)
     console.print(out)
-    files = spectra_figures(ds, output, sc, which)
     say(f"table and {len(files)} figures written to {output}")
+
+
+#: the band of the spectra, 0 to this, Hz (the study's Tables 6-7)
+SPECTRUM_BAND_HZ = 10.0
+#: the files ``spectrum`` writes in its folder (the table first)
+SPECTRUM_FILES = ("phase_spectra.csv", "spectra_per_phase.png", "spectrogram.png")
 
 
 def check_couplers(numbers, n: int) -> None:
@@ -239,10 +462,39 @@ def sysid(
     """Identify the transfer function locomotive force -> acceleration of vehicle 2, the
     first wagon (study Table 3, Appendix II) and its step metrics (Table 4)."""
     import json
+    import math
 
-    from ltdsim.analysis.identify import identify_result
+    from ltdsim.analysis.identify import _stable, identify_result
     from ltdsim.results.io import atomic_path
     from ltdsim.analysis.response import ramp_error, step_metrics
+
+    def check(sc, rec):
+        _needs_couplers(file, sc, "sysid", ": it identifies locomotive force -> "
+                                          "acceleration of vehicle 2")
+        t = rec.time.values
+        if t.size < 2:
+            raise ScenarioError(str(file), [("solver.t_end", f"the record holds {t.size} "
+                                                             "sample; give a longer run")])
+        step = float(t[1] - t[0])
+        if resample_dt is not None and resample_dt < step * (1 - 1e-9):
+            raise ScenarioError("--resample-dt", [("", f"must be at least the record's "
+                                                       f"interval, {step:g} s (got "
+                                                       f"{resample_dt:g})")])
+        # (identify_result: decimated by q when resample_dt is above 1.5 intervals)
+        q = int(round(resample_dt / step)) if resample_dt and resample_dt > 1.5 * step else 1
+        n = -(-t.size // q)
+        need = 2 * (poles + zeros + 1 + max(poles, zeros))
+        if n < need:
+            at = f" every {q * step:g} s (--resample-dt)" if q > 1 else f" (one every {step:g} s)"
+            raise ScenarioError(str(file), [("solver.t_end", (
+                f"the record holds {n} samples{at}; identifying {poles + zeros + 1} "
+                f"parameters ({poles} poles, {zeros} zeros and the feed-through) needs at "
+                f"least {need}: the first half estimates, its first {max(poles, zeros)} "
+                "samples only start the model and least squares needs at least one "
+                "equation per parameter, the second half validates; give a longer run, "
+                "fewer --poles or --zeros" + (", or a smaller --resample-dt" if q > 1 else "")))])
+        _check_finite(file, rec, "traction_force", "sysid")
+        _check_finite(file, rec, "acceleration", "sysid", [1], "vehicle")
 
     try:
         check_folder(output)
@@ -250,12 +502,8 @@ def sysid(
         check_number("--zeros", zeros, 0, poles, whole=True)
         if resample_dt is not None:
             check_number("--resample-dt", resample_dt, 0.0, 10.0, lo_open=True, unit="s")
-        ds, _ = result_or_scenario(file, case, overrides=set_, quiet=quiet)
-        step = float(ds.time[1] - ds.time[0]) if ds.sizes["time"] > 1 else float("nan")
-        if resample_dt is not None and resample_dt < step * (1 - 1e-9):
-            raise ScenarioError("--resample-dt", [("", f"must be at least the record's "
-                                                       f"interval, {step:g} s (got "
-                                                       f"{resample_dt:g})")])
+        check_outputs(output, ("sysid.json",), "sysid")
+        ds, _ = _analysed(file, case, set_, quiet, check)
     except (ScenarioError, SimulationError) as exc:
         fail(exc)
         return
@@ -268,17 +516,50 @@ def sysid(
         "cost": m.cost, "norm_of_step": m.step_norm, "first_order_optimality": m.optimality,
         "step": {k: float(v) for k, v in info.items()}, "ramp_steady_state_error": ramp_error(m.tf()),
     }
+    settles = ("the identified model is unstable (a pole on or outside the unit circle)"
+               if not _stable(m.a) else "the identified model's step response does not "
+               "settle within python-control's horizon")
+    why = {"step": settles,
+           "ramp_steady_state_error": "the ramp response does not settle to a steady error "
+                                      "(an unstable model, or a DC gain other than 1)",
+           "fit_percent": "the validation half's output does not vary (no fit to measure)",
+           "prediction_fit_percent": "the validation half's output does not vary (no fit to "
+                                     "measure)"}
+    nulls = {}
+
+    def finite(key, v):  # JSON has no NaN or Infinity: null, and the reason in "null"
+        if isinstance(v, dict):
+            return {k: finite(f"{key}.{k}", x) for k, x in v.items()}
+        if isinstance(v, float) and not math.isfinite(v):
+            nulls[key] = f"{v}: {why.get(key.split('.')[0], 'not a finite number')}"
+            return None
+        return v
+
+    written = {k: finite(k, v) for k, v in result.items()}
+    if nulls:
+        written["null"] = nulls
     table = plain_table(f"Identified model, Ts = {m.dt:g} s, {poles} poles, {zeros} zeros",
                    ("quantity", "value"))
+
+    def shown(v):
+        return f"{v:.4g}" if math.isfinite(v) else f"{v} (null in sysid.json)"
+
     for k in ("fpe", "mse", "fit_percent", "prediction_fit_percent", "function_evaluations",
               "cost", "norm_of_step", "first_order_optimality"):
-        table.add_row(k, f"{result[k]:.4g}")
+        table.add_row(k, shown(result[k]))
     for k in ("RiseTime", "SettlingTime", "Overshoot", "Peak", "PeakTime"):
-        table.add_row(f"step {k}", f"{info[k]:.4g}")
+        table.add_row(f"step {k}", shown(info[k]))
     console.print(table)
     console.print("numerator (z^0, z^-1, ...): " + ", ".join(f"{v:.5g}" for v in m.b))
     console.print("denominator: " + ", ".join(f"{v:.5g}" for v in m.a))
-    output.mkdir(parents=True, exist_ok=True)
-    with atomic_path(output / "sysid.json") as tmp:
-        tmp.write_text(json.dumps(result, indent=2))
+    for k, reason in nulls.items():
+        say(f"{k} is {reason}")
+
+    def write():
+        output.mkdir(parents=True, exist_ok=True)
+        with atomic_path(output / "sysid.json") as tmp:
+            tmp.write_text(json.dumps(written, indent=2, allow_nan=False))
+        record_outputs(output, [output / "sysid.json"])
+
+    _written_or_fail(write)
     say(f"written to {output / 'sysid.json'}")

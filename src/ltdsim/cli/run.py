@@ -349,7 +349,14 @@ def _print_fluid_brake(ds) -> dict | None:
             f"{src} (pipe there down {b['control_pipe_drop_Pa'] / 1e5:.2f} bar by "
             f"{b['end_time_s']:.1f} s); ")
     drop = f"{b['threshold_Pa'] / 1e5:.1f} bar"
-    if b["propagation_time_s"] == b["propagation_time_s"]:
+    # no vehicle away from its brake-control point (one vehicle): no distance to
+    # travel, so no propagation speed (0 m over the time is no speed)
+    alone = not b["farthest_distance_m"] > 0.0
+    if alone:
+        why = ("one vehicle" if b["arrival_s"].size == 1
+               else "every vehicle is a brake-control point")
+        line += f"propagation n/a ({why}); "
+    elif b["propagation_time_s"] == b["propagation_time_s"]:
         line += (f"propagation {b['end_to_end_speed_m_s']:.0f} m/s end to end (the pipe's "
                  f"{drop} drop {b['propagation_time_s']:.2f} s after the command at vehicle "
                  f"{b['farthest_vehicle'] + 1}, {b['farthest_distance_m']:.0f} m away)")
@@ -359,7 +366,7 @@ def _print_fluid_brake(ds) -> dict | None:
         line += "; "
     else:
         line += f"the {drop} drop did not reach vehicle {b['farthest_vehicle'] + 1}; "
-    if b["vent_time_s"] == b["vent_time_s"]:
+    if b["vent_time_s"] == b["vent_time_s"] and not alone:
         line += (f"vent front {b['vent_front_speed_m_s']:.0f} m/s end to end (pipe below "
                  f"{VENTED / 1e5:.0f} bar at vehicle {b['farthest_vehicle'] + 1} after {b['vent_time_s']:.2f} s); ")
     if b["last_cylinder_95_s"] == b["last_cylinder_95_s"]:

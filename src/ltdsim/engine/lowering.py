@@ -544,13 +544,15 @@ def full_service_pressure(cv_row: np.ndarray, dv_row: np.ndarray) -> float:
     regulated pressure ``p_reg``, ``p_reg V_aux / (V_aux + V_cyl)`` (Boyle's law at
     constant temperature; the quick-service draw from the pipe is left out)."""
     from ltdsim.physics.air.brakevalves import CV_PARAMS, DV_PARAMS, FAMILY_UIC
+    from ltdsim.scenario.brakes import equalisation_pressure
 
     cv = dict(zip(CV_PARAMS, cv_row))
     dv = dict(zip(DV_PARAMS, dv_row))
     if cv["family"] == FAMILY_UIC:
         return float(cv["max_cylinder"])
     va, vc = cv["auxiliary_volume"], cv["cylinder_volume"]
-    return float(min(dv["full_reduction"] * va / vc, dv["regulated"] * va / (va + vc)))
+    return float(min(dv["full_reduction"] * va / vc,
+                     equalisation_pressure(dv["regulated"], va, vc)))
 
 
 def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:

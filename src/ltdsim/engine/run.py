@@ -256,17 +256,65 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) 
         k0 = max(((k - 1) // low.record_every) * low.record_every, 0)
         parts = [f"simulation state became non-finite between t = {k0 * low.dt:.6g} s and "
                  f"t = {t:.6g} s (steps {k0} to {k}; the state is checked at every record)"]
-    if i is not None:
-        parts.append(f"vehicle {i + 1} ({scenario.vehicles[i].name!r}; 1 = lead): "
-                     f"displacement = {x[i]:.6g} m, velocity = {v[i]:.6g} m/s")
     j = None
     if n > 1:
         d = x[:-1] - x[1:] + low.d0
         badc = np.flatnonzero(~np.isfinite(d))
         if badc.size:
             j = int(badc[0])
-            parts.append(f"coupler {j + 1} (between vehicles {j + 1} and {j + 2}): "
-                         f"deflection = {d[j]:.6g} m")
+    drive = None if low.adaptive else _fast_drive(scenario, low)
+    if drive is not None:
+        # an induction drive faster than the step: the couplers and vehicles only
+        # follow it into NaN, so it is named instead of them
+        parts += drive
+        return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
+    if i is not None:
+        parts.append(f"vehicle {i + 1} ({scenario.vehicles[i].name!r}; 1 = lead): "
+                     f"displacement = {x[i]:.6g} m, velocity = {v[i]:.6g} m/s")
+    if j is not None:
+        parts.append(f"coupler {j + 1} (between vehicles {j + 1} and {j + 2}): "
+                     f"deflection = {d[j]:.6g} m")
     parts.append("hint: reduce solver.dt (or bs23 tolerances), or check stiffness and damping "
                  "against the masses")
     return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
+
+
+def _fast_drive(scenario: Scenario, low: Lowered) -> list[str] | None:
+    """For a fixed step above what the method keeps stable on the fastest lag of an
+    induction drive (its current loops, ``1 / (2 pi current_bandwidth)``, or its
+    stator's transient ``sigma L_s / R_sigma``, the plant pole the loops' PI cancels,
+    which stays a mode of the state): the message's parts naming the drive (consist,
+    vehicles, motor keys), that time constant against ``solver.dt`` and the remedy;
+    None otherwise."""
+    from ltdsim.engine.preflight import real_radius
+    from ltdsim.physics.drive import foc
+
+    method, dt = scenario.solver.method, low.dt
+    radius = real_radius(method)
+    worst = None
+    for k, j in enumerate(low.drive_of):
+        if j < 0:
+            continue
+        c = low.drive_ctrl[j]
+        lags = [(1.0 / c[foc.C_WC], "its current loops' time constant 1 / (2 pi "
+                 "traction.motor.current_bandwidth)"),
+                (c[foc.C_SIGMA] * c[foc.C_LS] / c[foc.C_RSIG], "its stator's transient "
+                 "time constant sigma L_s / R_sigma (traction.motor's leakage "
+                 "inductances and resistances)")]
+        tau, what = min(lags)
+        if dt > radius * tau and (worst is None or tau < worst[0]):
+            worst = (tau, what, k)
+    if worst is None:
+        return None
+    tau, what, k = worst
+    loco = scenario.consists()[k]
+    names = ", ".join(f"{i + 1} {scenario.vehicles[i].name!r}" for i in loco.vehicles[:3])
+    more = f" and {len(loco.vehicles) - 3} more" if len(loco.vehicles) > 3 else ""
+    motor = scenario.traction.motor
+    return [f"the induction drive of consist {k + 1} ({loco.name!r}, vehicle"
+            f"{'s' if len(loco.vehicles) > 1 else ''} {names}{more}; 1 = lead; motor "
+            f"traction.motor, preset {motor.preset!r}) is faster than the step: {what} = "
+            f"{tau:.3g} s against solver.dt = {dt:g} s, while {method} follows a lag "
+            f"only down to solver.dt / {radius:.3g} = {dt / radius:.3g} s",
+            f"hint: set solver.dt to at most {radius * tau:.3g} s, slow the drive "
+            "(traction.motor.current_bandwidth), or use the adaptive bs23"]

@@ -8,6 +8,7 @@ from __future__ import annotations
 from typing import Annotated, Any
 
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -61,6 +62,27 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
     if bad:
         raise ValueError(f"the second column must be {allowed}, got {bad}")
     return points
+
+
+def _show(value: float, unit: str) -> str:
+    """A value with its unit as a message writes it; a pressure (Pa) also in bar."""
+    if unit == "Pa" or unit.startswith("Pa "):  # (Pa gauge: "5e+05 Pa (5 bar) gauge")
+        return f"{value:g} Pa ({value / 1e5:g} bar){unit[2:]}"
+    return f"{value:g}" if unit == "-" else f"{value:g} {unit}"
+
+
+def quantity(lo: float, hi: float, unit: str, *, zero: bool = False, why: str = ""):
+    """A number (strict: a TOML integer or float) within ``[lo, hi]`` in ``unit``, or with
+    ``zero`` also exactly 0 (none: no such volume, orifice or stage). A value outside is
+    refused in one line naming the range with its unit and ``why`` (the range's
+    reading or its source)."""
+    def check(value: float) -> float:
+        if (zero and value == 0.0) or lo <= value <= hi:
+            return value
+        rng = f"{_show(lo, unit)} to {_show(hi, unit)}" + (" (or 0: none)" if zero else "")
+        raise ValueError(f"must be within {rng}, got {_show(value, unit)}"
+                         + (f" ({why})" if why else ""))
+    return Annotated[float, AfterValidator(check)]
 
 
 def _set_dotted(data: dict, key: str, value: Any, source: str) -> None:

@@ -9,18 +9,212 @@ from typing import Any, Literal, Union
 
 from pydantic import (
     Field,
+    ValidationError,
     model_validator,
 )
 
 from ltdsim.data import load_preset, preset_names
 
-from ltdsim.scenario._base import _Strict
+from ltdsim.scenario._base import _Strict, quantity
+from ltdsim.scenario.messages import first_problem
+
+# --- the valve tables' keys and their physical ranges ----------------------------------
+# Generous bounds around what air brakes are built with, so that a typing slip (a
+# boolean, a string, a value in bar or psi where Pa is meant, a pressure no pipe holds)
+# is refused and every real valve passes. Pressures are Pa (gauge), volumes m^3,
+# orifices effective diameters m, times s. The readings behind them:
+# * brake pipes run at 5 bar (UIC 540/543), 90 psi = 6.2 bar (AAR freight) and up to
+#   110 psi = 7.6 bar (heavy haul); 3-10 bar gauge covers them all;
+# * main reservoirs are charged to 8-10 bar (UIC locomotives) or 130-150 psi = 9-10.3
+#   bar (AAR); 12 bar gauge is above any working pressure;
+# * brake cylinders reach 3.8 bar (UIC full service) to 64-77 psi = 4.4-5.3 bar (AAR
+#   full service and emergency); no cylinder exceeds the pipe's 10 bar;
+# * reservoirs and cylinders: the shipped presets' 2500 in^3 = 41 l to 100 l auxiliary
+#   reservoirs, 17-20 l cylinders, 0.8-1 m^3 main reservoirs (the presets' sources);
+# * orifices: chokes of tenths of a millimetre up to the 1 in. (25 mm) class vent valve;
+#   50 mm is above the 1 1/4 in. (32 mm) pipe's bore;
+# * thresholds and bands: 0.1 bar (1.5 psi) thresholds and 0.03-0.3 bar bands in the
+#   presets; a proportional valve's band of 1 mbar or a piston slower than 10 s is not a
+#   valve.
+_PIPE = "the brake pipe: 5 bar UIC, 6.2 bar (90 psi) AAR, 7.6 bar (110 psi) heavy haul"
+_MAIN = "main reservoirs: 8-10 bar UIC, 130-150 psi = 9-10.3 bar AAR"
+_BAND = "a proportional valve's band"
+_TIME = "a valve's travel or relaxation time"
+
+_Cd = quantity(0.5, 1.0, "-", why="sharp-edged orifices 0.6, short chokes 0.8, rounded "
+               "nozzles near 1")
+_Diameter = quantity(1e-4, 0.05, "m", zero=True,
+                     why="an effective diameter, from a 0.1 mm choke to a 50 mm vent")
+_Band = quantity(100.0, 1e5, "Pa", why=_BAND)
+_Time = quantity(1e-3, 10.0, "s", why=_TIME)
+_Threshold = quantity(0.0, 1e5, "Pa", why="0.1 bar (1.5 psi) typical, 2 psi AAR release")
+_Auxiliary = quantity(1e-3, 0.5, "m^3", why="1-500 l")
+_Cylinder = quantity(5e-4, 0.2, "m^3", why="0.5-200 l with its piping")
+_Control = quantity(5e-4, 0.1, "m^3", zero=True, why="UIC control reservoir, 0.5-100 l")
+_Emergency = quantity(1e-3, 0.5, "m^3", zero=True, why="AAR emergency reservoir, 1-500 l")
+_Bulb = quantity(1e-5, 0.01, "m^3", zero=True, why="quick-service bulb, 0.01-10 l")
+_Chamber = quantity(1e-4, 0.02, "m^3", zero=True, why="quick-action chamber, 0.1-20 l")
+_MaxCylinder = quantity(0.5e5, 10e5, "Pa gauge", zero=True,
+                        why="UIC full-service cylinder, 3.8 bar typical")
+_FullDrop = quantity(1e3, 5e5, "Pa", zero=True,
+                     why="UIC pipe drop of full service, 1.5 bar typical")
+_QuickLimit = quantity(1e3, 3e5, "Pa gauge", why="0.4 bar UIC, 10 psi AAR")
+_Trip = quantity(1e3, 5e5, "Pa", zero=True, why="0.45-0.6 bar in the presets")
+_Cutoff = quantity(1e3, 3e5, "Pa gauge", zero=True, why="UIC, 0.2 bar typical")
+_MainVolume = quantity(0.05, 5.0, "m^3", why="locomotive main reservoirs, 50-5000 l")
+_Equalising = quantity(5e-4, 0.1, "m^3", why="0.5-100 l")
+_Regulated = quantity(3e5, 10e5, "Pa gauge", why=_PIPE)
+_FullReduction = quantity(1e4, 4e5, "Pa", why="1.5 bar UIC, 26 psi = 1.8 bar AAR")
+_MinReduction = quantity(0.0, 2e5, "Pa", why="0.5 bar UIC, 6-8 psi AAR")
+_Compressor = quantity(0.0, 1.0, "kg/s", why="0.05 kg/s is about 2.5 m^3/min of free air")
+_Governor = quantity(0.0, 12e5, "Pa gauge", why=_MAIN)
+_GovernorBand = quantity(100.0, 1e5, "Pa", zero=True, why=_BAND)
+_GovernorTime = quantity(1e-3, 60.0, "s", zero=True, why=_TIME)
+_MainInitial = quantity(3e5, 12e5, "Pa gauge", why=_MAIN)
+
+
+class ControlValveTable(_Strict):
+    """``brake.fluid.valve.control_valve``: the control valve (distributor) of every
+    braked vehicle, as a preset writes it, each key's type and range. Keys left out
+    take the preset's (none: 0, which the valve's row builder refuses where a key is
+    needed)."""
+
+    family: Literal["uic", "aar"] | None = None
+    discharge_coefficient: _Cd | None = None
+    auxiliary_volume: _Auxiliary | None = None
+    cylinder_volume: _Cylinder | None = None
+    control_volume: _Control | None = None
+    emergency_volume: _Emergency | None = None
+    quick_service_volume: _Bulb | None = None
+    quick_action_volume: _Chamber | None = None
+    charge_diameter: _Diameter | None = None
+    control_diameter: _Diameter | None = None
+    emergency_charge_diameter: _Diameter | None = None
+    apply_diameter: _Diameter | None = None
+    release_diameter: _Diameter | None = None
+    quick_service_diameter: _Diameter | None = None
+    quick_service_vent_diameter: _Diameter | None = None
+    quick_service_cylinder_diameter: _Diameter | None = None
+    quick_action_diameter: _Diameter | None = None
+    quick_action_vent_diameter: _Diameter | None = None
+    vent_diameter: _Diameter | None = None
+    emergency_apply_diameter: _Diameter | None = None
+    max_cylinder: _MaxCylinder | None = None
+    full_drop: _FullDrop | None = None
+    threshold: _Threshold | None = None
+    release_threshold: _Threshold | None = None
+    band: _Band | None = None
+    piston_time: _Time | None = None
+    quick_service_limit: _QuickLimit | None = None
+    trip: _Trip | None = None
+    trip_band: _Band | None = None
+    emergency_time: _Time | None = None
+    control_cutoff: _Cutoff | None = None
+
+
+class DriverValveTable(_Strict):
+    """``brake.fluid.valve.driver_valve``: the driver's brake valve of every
+    brake-control point, as a preset writes it, each key's type and range (keys left
+    out: the preset's)."""
+
+    discharge_coefficient: _Cd | None = None
+    main_volume: _MainVolume | None = None
+    equalising_volume: _Equalising | None = None
+    regulated: _Regulated | None = None
+    full_reduction: _FullReduction | None = None
+    minimum_reduction: _MinReduction | None = None
+    charge_diameter: _Diameter | None = None
+    service_diameter: _Diameter | None = None
+    emergency_diameter: _Diameter | None = None
+    feed_diameter: _Diameter | None = None
+    exhaust_diameter: _Diameter | None = None
+    vent_diameter: _Diameter | None = None
+    regulating_band: _Band | None = None
+    relay_band: _Band | None = None
+    vent_time: _Time | None = None
+    compressor_flow: _Compressor | None = None
+    cut_in: _Governor | None = None
+    cut_out: _Governor | None = None
+    governor_band: _GovernorBand | None = None
+    governor_time: _GovernorTime | None = None
+    main_initial: _MainInitial | None = None
+
+
+def equalisation_pressure(regulated: float, auxiliary_volume: float,
+                          cylinder_volume: float) -> float:
+    """Pressure (Pa, gauge) at which an auxiliary reservoir charged to the pipe's
+    ``regulated`` pressure (Pa, gauge) equalises with an empty brake cylinder: Boyle's
+    law at constant temperature, ``regulated V_aux / (V_aux + V_cyl)`` (volumes m^3; the
+    atmosphere's share cancels in gauge pressures). No cylinder of that valve can be
+    filled above it from the auxiliary reservoir alone."""
+    return regulated * auxiliary_volume / (auxiliary_volume + cylinder_volume)
+
+
+def _bar(p: float) -> str:
+    return f"{p / 1e5:.3g} bar"
+
+
+def _relations(cv: dict, dv: dict) -> None:
+    """What a brake designer checks between the valves' keys (both tables already
+    within their ranges and accepted by the row builders); one ``ValueError`` line
+    naming the keys and the relation."""
+    def g(table: dict, key: str) -> float:
+        return float(table.get(key, 0.0))
+
+    where = "brake.fluid.valve"
+    reg = g(dv, "regulated")
+    va, vc = g(cv, "auxiliary_volume"), g(cv, "cylinder_volume")
+    p_eq = equalisation_pressure(reg, va, vc)
+    eq = (f"p_eq = driver_valve.regulated x auxiliary_volume / (auxiliary_volume + "
+          f"cylinder_volume) = {_bar(reg)} x {va:g} / ({va:g} + {vc:g}) m^3 = {_bar(p_eq)}")
+    if cv.get("family") == "uic":
+        full = g(cv, "max_cylinder")
+        if full > p_eq:
+            raise ValueError(f"{where}: control_valve.max_cylinder ({_bar(full)}) must not "
+                             f"exceed the pressure at which the auxiliary reservoir "
+                             f"equalises with the cylinder, {eq} (gauge): the reservoir "
+                             "cannot fill the cylinder higher")
+        if g(cv, "control_cutoff") >= full:
+            raise ValueError(f"{where}: control_valve.control_cutoff "
+                             f"({_bar(g(cv, 'control_cutoff'))}) must be below "
+                             f"control_valve.max_cylinder ({_bar(full)}): the control "
+                             "reservoir must be isolated once the brake applies")
+        if g(cv, "full_drop") > g(dv, "full_reduction"):
+            raise ValueError(f"{where}: control_valve.full_drop ({_bar(g(cv, 'full_drop'))})"
+                             " must not exceed driver_valve.full_reduction "
+                             f"({_bar(g(dv, 'full_reduction'))}): a full service would "
+                             "not reach control_valve.max_cylinder")
+    else:
+        full = min(g(dv, "full_reduction") * va / vc, p_eq)
+    if g(cv, "quick_service_limit") >= full:
+        raise ValueError(f"{where}: control_valve.quick_service_limit "
+                         f"({_bar(g(cv, 'quick_service_limit'))}) must be below the "
+                         f"full-service cylinder pressure ({_bar(full)}): quick service "
+                         "would draw the pipe through the whole application")
+    mini = g(dv, "minimum_reduction")
+    if 0.0 < mini <= g(cv, "threshold"):
+        raise ValueError(f"{where}: driver_valve.minimum_reduction ({_bar(mini)}) must "
+                         f"exceed control_valve.threshold ({_bar(g(cv, 'threshold'))}): "
+                         "a minimum service would apply no brake")
+    if g(cv, "quick_action_volume") > 0.0 and g(cv, "trip") + g(cv, "trip_band") >= reg:
+        raise ValueError(f"{where}: control_valve.trip + trip_band "
+                         f"({_bar(g(cv, 'trip') + g(cv, 'trip_band'))}) must be below "
+                         f"driver_valve.regulated ({_bar(reg)}): the quick-action chamber "
+                         "stands at most the pipe's pressure above a vented pipe, so no "
+                         "emergency would trip")
+    if g(dv, "compressor_flow") > 0.0 and g(dv, "cut_in") <= reg:
+        raise ValueError(f"{where}: driver_valve.cut_in ({_bar(g(dv, 'cut_in'))}) must "
+                         f"exceed driver_valve.regulated ({_bar(reg)}): the compressor "
+                         "must keep the main reservoir above the pipe it feeds")
 
 
 def valve_tables(fluid: "FluidBrake") -> tuple[dict, dict]:
     """The ``[control_valve]`` and ``[driver_valve]`` tables of ``brake.fluid.valve``: a
-    preset's, or an inline table's keys over its ``preset`` (if any); each checked by
-    the valves' row builders. Raises ``ValueError`` in one line naming the key."""
+    preset's, or an inline table's keys over its ``preset`` (if any); each key checked
+    for its type and physical range (:class:`ControlValveTable`,
+    :class:`DriverValveTable`), the tables by the valves' row builders, and the
+    relations between the keys (:func:`_relations`). Raises ``ValueError`` in one line
+    naming the key."""
     from ltdsim.physics.air.brakevalves import control_valve_row, driver_valve_row
 
     valve = fluid.valve
@@ -48,6 +242,12 @@ def valve_tables(fluid: "FluidBrake") -> tuple[dict, dict]:
     cv, dv = tables
     if fluid.regulated_pressure is not None:
         dv = {**dv, "regulated": fluid.regulated_pressure}
+    for key, table, model in (("control_valve", cv, ControlValveTable),
+                              ("driver_valve", dv, DriverValveTable)):
+        try:
+            model.model_validate(table)
+        except ValidationError as exc:
+            raise ValueError(first_problem(exc, f"brake.fluid.valve.{key}.", model)) from None
     try:
         control_valve_row(cv)
     except ValueError as exc:
@@ -56,6 +256,7 @@ def valve_tables(fluid: "FluidBrake") -> tuple[dict, dict]:
         driver_valve_row(dv)
     except ValueError as exc:
         raise ValueError(f"brake.fluid.valve: {exc}") from None
+    _relations(cv, dv)
     return cv, dv
 
 
@@ -113,7 +314,7 @@ class FluidBrake(_Strict):
                                        "coefficient x area, shared by its cells, m^2 (0: "
                                        "tight; a 1 mm hole at Cd 0.6 is 4.7e-7)")
     regulated_pressure: float | None = Field(
-        None, ge=1e5, le=1.2e6,
+        None, ge=3e5, le=1e6,
         description="pipe pressure the driver's valves charge to (none: the preset's "
                     "driver_valve.regulated), Pa (gauge)")
 

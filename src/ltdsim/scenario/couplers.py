@@ -193,6 +193,10 @@ class FrictionWedgeGear(_HystereticGear):
         return ["S or S_table"] if self.S is None and self.S_table is None else []
 
     def _check(self) -> None:
+        if self.S is not None and self.S_table is not None:
+            raise ValueError("S and S_table both given: the lubrication factor is either the "
+                             "constant S or the table S_table (impact speed m/s, deflection "
+                             "m); give one of them")
         if self.alpha_deg + self.gamma_deg >= 85.0:
             raise ValueError("alpha_deg + gamma_deg must stay below 85 deg (the wedge locks)")
         # psi_1's denominator must stay positive at the largest friction coefficient
@@ -223,6 +227,23 @@ class TableGear(_HystereticGear):
                          "forces in [0, 1e8] N")
             if pts[0][0] != 0.0:
                 raise ValueError(f"{name} must start at deflection 0")
+            if len(pts) < 2:
+                raise ValueError(f"{name}: {len(pts)} point ({pts[0][1]:g} N at 0 m) is not a "
+                                 "force-deflection curve: give at least 2 [deflection m, "
+                                 "force N] points, from deflection 0 to the gear's travel")
+        first, last = self.loading[0], self.loading[-1]
+        if last[1] <= first[1]:
+            raise ValueError(f"loading: the force must rise from its start ({first[1]:g} N at "
+                             f"0 m) to its last point ({last[1]:g} N at {last[0]:g} m): a "
+                             "gear resists more the further it is closed")
+        ends = max(self.loading[-1][0], self.unloading[-1][0])
+        if self.travel is not None and self.travel < ends:
+            name = "loading" if self.loading[-1][0] == ends else "unloading"
+            raise ValueError(f"travel ({self.travel:g} m) is below the last deflection of "
+                             f"{name} ({ends:g} m): the points beyond travel would have no "
+                             "effect (the gear is solid from travel on); end the curves at "
+                             "travel, or leave travel out (the last point is then the "
+                             "travel)")
         # a gear resists more the further it is closed: a loading curve never falls
         for (x0, f0), (x1, f1) in zip(self.loading, self.loading[1:]):
             if f1 < f0:
@@ -333,11 +354,21 @@ _TAGS = {f"[{name}]": cls for name, cls in COUPLER_CLASSES.items()}
 _UNKNOWN_TAG = "[unknown model]"
 
 
+#: keys that stand for one another (one of them is given): a table's or an override's
+#: key replaces the other one of a preset or a default beneath it
+ALTERNATIVE_KEYS = {"S": "S_table", "S_table": "S"}
+
+
 def _merge_preset(data):
-    """``preset = NAME``: the preset's keys under the ones given (None values dropped)."""
+    """``preset = NAME``: the preset's keys under the ones given (None values dropped; S or
+    S_table given replaces the preset's other one)."""
     if isinstance(data, dict) and data.get("preset"):
         base = load_preset("gears", data["preset"])
-        base.update({k: v for k, v in data.items() if v is not None})
+        given = {k: v for k, v in data.items() if v is not None}
+        for key in given:
+            if key in ALTERNATIVE_KEYS and ALTERNATIVE_KEYS[key] not in given:
+                base.pop(ALTERNATIVE_KEYS[key], None)
+        base.update(given)
         return base
     return data
 
@@ -404,7 +435,8 @@ class Couplers(_Strict):
     reach a coupler of another model. An override that names a ``preset`` describes
     another gear: it keeps only the default's ``slack`` and ``gears`` (the coupling's free
     play and how many gears it holds, not the gear's own keys) and takes every other key
-    from itself and its preset.
+    from itself and its preset. An override's S replaces the default's S_table, its
+    S_table the default's S (:data:`ALTERNATIVE_KEYS`; a preset's likewise).
     """
 
     default: Coupler

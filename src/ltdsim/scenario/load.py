@@ -12,6 +12,7 @@ from pathlib import Path
 from ltdsim.errors import ScenarioError
 
 from ltdsim.scenario.model import Scenario
+from ltdsim.scenario.unused import first_of_each, no_effect, written
 
 
 # ---------------------------------------------------------------------- loading
@@ -28,10 +29,30 @@ def load_scenario(path: str | Path, case: str | None = None) -> Scenario:
     """
     path = Path(path)
     data = read_toml(path)
+    sweep = _sweep_tables(data)
+    if sweep:
+        raise ScenarioError(str(path), [("", f"a sweep file (its {sweep}), not a scenario: "
+                                             f"run its cases with `ltdsim sweep {path}`")])
     track = data.get("track")
     if isinstance(track, dict) and isinstance(track.get("profile_file"), str):
         track["profile"] = read_profile(path.parent / track["profile_file"], str(path))
     return scenario_from_data(data, str(path), case)
+
+
+#: what marks a sweep file (ltdsim.sweep.load_sweep): a scenario file it starts from and
+#: the tables of its cases
+_SWEEP_TABLES = ("overrides", "grid", "list", "monte_carlo")
+
+
+def _sweep_tables(data: dict) -> str:
+    """How ``data`` reads as a sweep file ("scenario key and [list] table"), or "" when it
+    does not (a ``scenario`` string with one of the sweep's tables)."""
+    if not isinstance(data.get("scenario"), str):
+        return ""
+    tables = [f"[{k}]" for k in _SWEEP_TABLES if isinstance(data.get(k), dict)]
+    if not tables:
+        return ""
+    return f"scenario key and {' and '.join(tables)} table{'s' if len(tables) > 1 else ''}"
 
 
 def read_profile(path: str | Path, source: str) -> list[list[float]]:
@@ -43,7 +64,7 @@ def read_profile(path: str | Path, source: str) -> list[list[float]]:
     path = Path(path)
     key = "track.profile_file"
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # (a byte-order mark dropped)
     except (OSError, UnicodeDecodeError) as exc:
         why = "file not found" if isinstance(exc, FileNotFoundError) else f"cannot read: {exc}"
         raise ScenarioError(source, [(key, f"{path}: {why}")]) from None
@@ -71,12 +92,21 @@ def read_profile(path: str | Path, source: str) -> list[list[float]]:
 
 def scenario_from_data(data: dict, source: str, case: str | None = None) -> Scenario:
     """:func:`load_scenario` of a table already read (``source`` names it in messages):
-    the scenario and every case validated, ``case`` applied."""
+    the scenario and every case validated, ``case`` applied. A key given that would have
+    no effect in the scenario and in every case (:mod:`ltdsim.scenario.unused`) is
+    refused, and so is a ``case`` key (``--case`` chooses the case)."""
     scenario = Scenario.from_dict(data, source)
-    for name in scenario.cases:
-        scenario.with_case(name, source)
+    if "case" in data:
+        raise ScenarioError(source, [("case", scenario._case_key())])
+    cases = {name: scenario.with_case(name, source) for name in scenario.cases}
+    unused = [(k, m) for k, m in no_effect(scenario) if written(scenario, k)]
+    for other in cases.values():  # a key a case reads is not without effect
+        keys = {k for k, _ in no_effect(other)}
+        unused = [(k, m) for k, m in unused if k in keys]
+    if unused:
+        raise ScenarioError(source, first_of_each(unused))
     if case is not None:
-        scenario = scenario.with_case(case, source)
+        scenario = cases[case] if case in cases else scenario.with_case(case, source)
     return scenario
 
 
@@ -84,7 +114,8 @@ def read_toml(path: str | Path, what: str = "scenario file") -> dict:
     """The table in TOML file ``path``, or a :class:`ScenarioError` in one line naming the
     file and what is wrong with it: missing, a folder, unreadable (permissions), not UTF-8
     text (a binary file, or a byte of another encoding in a string or comment; the line
-    and column are given), or not valid TOML."""
+    and column are given), or not valid TOML. A UTF-8 byte-order mark at the start is
+    dropped."""
     path = Path(path)
     source = str(path)
     try:
@@ -109,6 +140,8 @@ def read_toml(path: str | Path, what: str = "scenario file") -> dict:
         raise ScenarioError(source, [("", f"{kind}: byte 0x{raw[exc.start]:02x} at line "
                                           f"{line}, column {col} (TOML files are UTF-8: "
                                           "save the file as UTF-8)")]) from None
+    if text.startswith("\ufeff"):  # a byte-order mark some editors write: not TOML's
+        text = text[1:]
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

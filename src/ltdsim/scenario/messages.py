@@ -70,6 +70,30 @@ def _problems(exc: ValidationError, root=None) -> list[tuple[str, str]]:
     return out
 
 
+def first_problem(exc: ValidationError, prefix: str = "", model=None) -> str:
+    """The first problem of ``exc`` as one line, ``prefix`` + the dotted key + its
+    message in TOML's words (a wrong type, an unknown key with the keys ``model``
+    allows, a missing key, a range); a problem of the whole table (a relation between
+    its keys) is its message alone."""
+    err = exc.errors()[0]
+    key = prefix + ".".join(str(p) for p in err["loc"])
+    msg = err["msg"].removeprefix("Value error, ")
+    if err["type"] in _TYPE_MESSAGES:
+        msg = f"{_TYPE_MESSAGES[err['type']]} (got {_toml(err['input'])})"
+    elif err["type"] == "extra_forbidden":
+        msg = "unknown key" + (f"; allowed: {', '.join(model.model_fields)}" if model else "")
+    elif err["type"] == "missing":
+        msg = "required key is missing"
+    elif err["type"] == "finite_number":
+        msg = "must be a finite number (NaN and inf are not allowed)"
+    elif err["type"] in ("literal_error", "greater_than", "greater_than_equal", "less_than",
+                         "less_than_equal"):
+        msg = f"{msg} (got {_toml(err['input'])})"
+    if not err["loc"]:
+        return f"{prefix.rstrip('.') + ': ' if prefix else ''}{msg}"
+    return f"{key}: {msg}"
+
+
 def _other_model(loc) -> str:
     """For a coupler key refused because it belongs to another model: which models it
     belongs to (empty otherwise)."""

@@ -20,12 +20,13 @@ from ltdsim.errors import ScenarioError
 
 from ltdsim.scenario._base import MAX_VEHICLES, _Strict, _set_dotted
 from ltdsim.scenario.brakes import Brake, valve_tables
-from ltdsim.scenario.couplers import COUPLER_CLASSES, Couplers, DEFAULT_COUPLER_MODEL, SHARED_COUPLER_KEYS, _COUPLER_ADAPTER, _CouplerBase
+from ltdsim.scenario.couplers import ALTERNATIVE_KEYS, COUPLER_CLASSES, Couplers, DEFAULT_COUPLER_MODEL, SHARED_COUPLER_KEYS, _COUPLER_ADAPTER, _CouplerBase
 from ltdsim.scenario.driver import Driver
 from ltdsim.scenario.messages import _problems
 from ltdsim.scenario.solver import Solver
 from ltdsim.scenario.track import Curving, Track
 from ltdsim.scenario.traction import Locomotive, Traction
+from ltdsim.scenario.unused import first_of_each, flat_keys, given_by, no_effect
 from ltdsim.scenario.vehicles import Vehicle
 
 
@@ -144,6 +145,10 @@ class Scenario(_Strict):
                 if problem:
                     raise ValueError(f"vehicles.{i}.{problem} (needed by [curving])")
         self._check_drives()
+        if self.case is not None and self.case not in self.cases:
+            avail = ", ".join(sorted(self.cases)) or "none defined"
+            raise ValueError(f"case: {self.case!r} is not a case of this scenario (its "
+                             f"cases: {avail}); case names the case applied by --case NAME")
         names = [p.name for p in self.phases]
         if len(set(names)) != len(names):
             raise ValueError(f"phases: names must differ, got {names}")
@@ -280,6 +285,9 @@ class Scenario(_Strict):
                 # another model: the keys every model shares carry over, not the old
                 # model's own
                 params = {k: params[k] for k in SHARED_COUPLER_KEYS}
+            for key in changed:  # S_table given replaces the default's S, and S S_table
+                if key in ALTERNATIVE_KEYS and ALTERNATIVE_KEYS[key] not in changed:
+                    params.pop(ALTERNATIVE_KEYS[key], None)
             params.update(changed)
         return _COUPLER_ADAPTER.validate_python(params)
 
@@ -317,12 +325,29 @@ class Scenario(_Strict):
         """Return a copy with dotted-key overrides applied and validated.
 
         Keys address the expanded form: ``"couplers.default.k3"``, ``"solver.t_end"``,
-        ``"vehicles.3.mass"`` (vehicle 3, lead = 0), ``"driver.pid.kp"``.
+        ``"vehicles.3.mass"`` (vehicle 3, lead = 0), ``"driver.pid.kp"``. An override
+        that would have no effect (:mod:`ltdsim.scenario.unused`) is refused, and so is
+        ``case`` (:meth:`with_case` applies a case).
         """
+        if "case" in overrides:
+            raise ScenarioError(source, [("case", self._case_key())])
         data = self.to_dict()
         for key, value in overrides.items():
             _set_dotted(data, key, value, source)
-        return Scenario.from_dict(data, source)
+        out = Scenario.from_dict(data, source)
+        # (a key read back from the dictionary is given: only the overrides' own count)
+        keys = flat_keys(overrides)
+        unused = [(k, m) for k, m in no_effect(out) if given_by(keys, k)]
+        if unused:
+            raise ScenarioError(source, first_of_each(unused))
+        return out
+
+    def _case_key(self) -> str:
+        """Why ``case`` is not a key to give: what --case does instead."""
+        avail = ", ".join(sorted(self.cases)) or "none defined"
+        return ("names the case applied, set by --case NAME, which applies the case's "
+                "overrides; given as a key it would only relabel the run (the cases: "
+                f"{avail})")
 
     def with_case(self, name: str, source: str = "scenario") -> "Scenario":
         """Return a copy with the named case's overrides applied."""

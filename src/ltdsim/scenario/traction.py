@@ -20,6 +20,7 @@ from ltdsim.scenario.creep import Creep
 from ltdsim.data import preset_names
 
 from ltdsim.scenario._base import Points, _Strict, _check_table
+from ltdsim.scenario.messages import first_problem
 
 
 class TractionMotor(BaseModel):
@@ -57,9 +58,7 @@ class TractionMotor(BaseModel):
         try:
             return Motor(**{**base, **extra})
         except ValidationError as exc:
-            err = exc.errors()[0]
-            key = ".".join(str(x) for x in err["loc"]) or "(table)"
-            raise ValueError(f"{key}: {err['msg']}") from None
+            raise ValueError(first_problem(exc, model=Motor)) from None
 
 
 class Traction(_Strict):

@@ -114,6 +114,17 @@ class VehicleGeometry(_Strict):
     axles: int | None = Field(None, ge=2, le=16, description="number of axles, half of them "
                                                              "in each of the two bogies, -")
 
+    @field_validator("axles")
+    @classmethod
+    def _two_bogies(cls, v):
+        # the curving indicators (ltdsim.results.safety) share a bogie's lateral force
+        # among its wheelsets, half of the axles under each of the two bogies
+        if v is not None and v % 2:
+            raise ValueError(f"{v} axles cannot be split between the vehicle's two bogies "
+                             "(the curving indicators put half of them in each): give an "
+                             "even number from 2 to 16")
+        return v
+
 
 class ResolvedGeometry(typing.NamedTuple):
     """A vehicle's geometry with the defaults filled in (SI: m, -)."""
@@ -152,6 +163,16 @@ class Vehicle(_Strict):
                                       description="bogie and coupler geometry for the "
                                                   "curving indicators ([curving]); "
                                                   "defaults by kind (docs/curving.md)")
+
+    @model_validator(mode="after")
+    def _masses(self):
+        # the dynamic mass is the static mass plus the equivalent mass of the rotating
+        # parts (wheelsets, gears, motors): never less
+        if self.static_mass is not None and self.mass < self.static_mass:
+            raise ValueError(f"mass ({self.mass:g} kg) must be at least static_mass "
+                             f"({self.static_mass:g} kg): mass is the dynamic mass, the "
+                             "static mass plus the rotating parts' equivalent mass")
+        return self
 
     @property
     def weight_mass(self) -> float:

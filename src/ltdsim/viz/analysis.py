@@ -18,10 +18,13 @@ from ltdsim.results.io import scenario_of
 from ltdsim.scenario import Scenario
 
 
-def save_mode_shapes(table: pd.DataFrame, path, title: str = ""):
+def save_mode_shapes(table: pd.DataFrame, path, title: str = "", table_numbers: bool = False):
     """Mode-shape figure (the study's Fig. 8): one panel per mode (the rigid-body mode of
     a free train left out), its amplitude along the train, normalised to the largest,
-    with its frequency; ``title`` should say which stiffness was used."""
+    with its frequency; ``title`` should say which stiffness was used. The panels are
+    numbered from 1 as drawn (the study's count), or with ``table_numbers`` as the rows
+    of ``table`` are (1 = the lowest, the rigid-body mode, not drawn), for a figure
+    beside that table."""
     from ltdsim.viz.plotting import WIDTH, _save, plt
 
     modes = table[table.frequency_hz > 1e-6]
@@ -32,11 +35,13 @@ def save_mode_shapes(table: pd.DataFrame, path, title: str = ""):
     fig, axes = plt.subplots(rows, cols, figsize=(WIDTH, 2.2 * rows + 1.0), squeeze=False,
                              sharex=True, sharey=True, constrained_layout=True)
     x = np.arange(1, n + 1)
-    for k, (row, f) in enumerate(zip(shapes, modes.frequency_hz)):
+    numbers = (table.index.get_indexer(modes.index) + 1 if table_numbers else
+               np.arange(1, len(modes) + 1))
+    for k, (row, f, number) in enumerate(zip(shapes, modes.frequency_hz, numbers)):
         ax = axes.flat[k]
         ax.axhline(0.0, color="0.5", lw=0.8)
         ax.plot(x, row / np.abs(row).max(), "o-", ms=4, lw=1.2, color="tab:blue")
-        ax.set_title(f"mode {k + 1}: {f:.2f} Hz", loc="left")
+        ax.set_title(f"mode {number}: {f:.2f} Hz", loc="left")
         ax.set_ylim(-1.15, 1.15)
         ax.xaxis.set_major_locator(plt.MaxNLocator(integer=True))
     for ax in axes.flat[len(modes):]:
@@ -45,7 +50,10 @@ def save_mode_shapes(table: pd.DataFrame, path, title: str = ""):
         ax.set_xlabel("vehicle (1 = lead)")
     for ax in axes[:, 0]:
         ax.set_ylabel("displacement [-]")
-    fig.suptitle(title or "mode shapes")
+    left = [str(i + 1) for i in range(len(table)) if table.index[i] not in modes.index]
+    fig.suptitle((title or "mode shapes") + (f" (mode {', '.join(left)} at 0 Hz, the "
+                                             "rigid-body motion, not drawn)"
+                                             if table_numbers and left else ""))
     return _save(fig, path)
 
 

@@ -255,9 +255,10 @@ def brake_pressure_figure(ds: xr.Dataset, window: tuple[float, float] | None = N
     title = ds.attrs.get("title", "ltdsim result") + ": fluid air brake"
     if summary is not None:
         bits = []
-        if np.isfinite(summary["end_to_end_speed_m_s"]):
+        away = summary["farthest_distance_m"] > 0.0  # (one vehicle: no speed to give)
+        if away and np.isfinite(summary["end_to_end_speed_m_s"]):
             bits.append(f"propagation {summary['end_to_end_speed_m_s']:.0f} m/s end to end")
-        if np.isfinite(summary.get("vent_front_speed_m_s", np.nan)):
+        if away and np.isfinite(summary.get("vent_front_speed_m_s", np.nan)):
             bits.append(f"vent front {summary['vent_front_speed_m_s']:.0f} m/s")
         if np.isfinite(summary["last_cylinder_95_s"]):
             bits.append(f"rear cylinder (vehicle {summary['last_vehicle'] + 1}) at 95 % "
