@@ -170,11 +170,11 @@ def test_a_valve_number_given_as_text_says_number_and_what_was_given(tmp_path, t
     assert "must be given" not in msg
 
 
-def test_a_valve_family_given_as_a_number_says_string(tmp_path):
+def test_a_valve_family_given_as_a_number_names_the_families(tmp_path):
     text = edit(UIC, 'valve = "uic-g"', 'valve = { preset = "uic-g", control_valve = '
                                         '{ family = 1 } }')
-    refused(tmp_path, text, r"brake\.fluid\.valve\.control_valve\.family: must be a string "
-                            r"\(in quotes\) \(got 1\)")
+    refused(tmp_path, text, r"brake\.fluid\.valve\.control_valve\.family: Input should be "
+                            r"'uic' or 'aar' \(got 1\)")
 
 
 def test_a_motor_key_given_as_text_says_number_and_what_was_given(tmp_path):
