@@ -105,3 +105,44 @@ def test_the_heavy_haul_start_balance_closes_under_bs23():
     # (the gears take about 0.04 % of it here: the balance of the rest gives their share
     # to within about 5 %, bs23's tolerance on the speeds; docs/energy.md)
     assert (ds.coupler_energy.values[-1] > 0.0).all()
+
+
+def test_sampling_the_body_powers_coarser_than_the_step_keeps_every_term():
+    # under a fixed step the brakes', resistances' and couplers' powers are sampled every
+    # solver.energy_interval (5 steps of the study case's 0.1 ms here), traction's every
+    # step; against sampling all of them every step (the finer trapezoid, the reference)
+    # the couplers' records agree within 1e-3 and every balance still closes, and neither
+    # changes any other result of the run without the accounting
+    base = ltdsim.load_scenario(PAPER, case="LHHL").with_overrides({"solver.t_end": 60.0})
+    plain = ltdsim.simulate(base)
+    coarse_sc = base.with_overrides({"solver.energy": True})
+    fine_sc = base.with_overrides({"solver.energy": True, "solver.energy_interval": 1e-4})
+    assert (coarse_sc.solver.energy_every, fine_sc.solver.energy_every) == (5, 1)
+    coarse, fine = ltdsim.simulate(coarse_sc), ltdsim.simulate(fine_sc)
+    through = float(fine.traction_energy[-1] + fine.dynamic_brake_energy[-1])
+    for ds in (coarse, fine):
+        assert float(np.abs(ds.energy_balance_error).max()) <= 1e-6 * through
+        for name in plain.data_vars:
+            np.testing.assert_array_equal(plain[name].values, ds[name].values, err_msg=name)
+    assert_allclose(coarse.coupler_energy.values[-1], fine.coupler_energy.values[-1],
+                    rtol=1e-3)
+    np.testing.assert_array_equal(coarse.traction_energy.values, fine.traction_energy.values)
+    for name in ("davis_energy", "grade_energy", "curve_energy"):
+        assert_allclose(coarse[name].values, fine[name].values, rtol=0,
+                        atol=1e-6 * abs(float(fine[name][-1])) + 1e-9 * through)
+
+
+@pytest.mark.parametrize("output, interval, every", [
+    (1e-3, 5e-4, 5),   # 10 steps a record: the largest divisor within 0.5 ms
+    (1e-3, 3e-4, 2),   # 3 does not divide 10
+    (7e-4, 5e-4, 1),   # 7 steps a record: no divisor but 1 within 0.5 ms
+    (1e-3, 1.0, 10),   # never beyond the record interval
+    (1e-3, 5e-5, 1),   # an interval below the step: every step
+])
+def test_the_body_powers_are_sampled_on_a_grid_that_holds_every_record(output, interval,
+                                                                        every):
+    sc = ltdsim.load_scenario(PAPER, case="LHHL").with_overrides(
+        {"solver.energy": True, "solver.output_interval": output,
+         "solver.energy_interval": interval})
+    assert sc.solver.record_every % sc.solver.energy_every == 0
+    assert sc.solver.energy_every == every

@@ -10,7 +10,7 @@ import pytest
 import ltdsim
 from ltdsim import ScenarioError
 
-from conftest import ROOT, cli_refused
+from conftest import PAPER, ROOT, cli_refused
 
 SCENARIOS = ROOT / "scenarios"
 SHORT = (SCENARIOS / "short-train.toml").read_text()
@@ -329,3 +329,16 @@ def test_set_case_is_refused_listing_the_cases(name):
         ltdsim.load_scenario(paper).with_overrides({"case": name}, source="--set")
     text = cli_refused("run", paper, "--set", f"case={name}")
     assert "would only relabel the run" in text and "LHHL" in text
+
+
+def test_an_energy_interval_without_the_energy_accounting_is_refused():
+    sc = ltdsim.load_scenario(PAPER, case="LHHL")
+    with pytest.raises(ScenarioError, match=r"solver.energy_interval: has no effect with "
+                                            r"solver.energy = false"):
+        sc.with_overrides({"solver.energy_interval": 1e-3})
+    with pytest.raises(ScenarioError, match=r"solver.energy_interval: has no effect with "
+                                            r"method = 'bs23'"):
+        sc.with_overrides({"solver.energy": True, "solver.method": "bs23",
+                           "solver.energy_interval": 1e-3})
+    assert sc.with_overrides({"solver.energy": True,
+                              "solver.energy_interval": 1e-3}).solver.energy_every == 10

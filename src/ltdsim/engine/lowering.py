@@ -80,6 +80,7 @@ class Lowered:
     dt: float
     n_steps: int
     record_every: int
+    energy_every: int  # fixed step, solver.energy: steps between samples of the body powers
     y0: np.ndarray  # initial state [x (n), v (n), gear states, traction lags, brake cylinders]
     atol: np.ndarray  # bs23 absolute error scale per state element
     rtol: np.ndarray  # bs23 relative tolerance per state element (0 for positions)
@@ -381,7 +382,8 @@ def lower(s: Scenario) -> Lowered:
         prof_t=np.ascontiguousarray(prof[:, 0]), prof_y=np.ascontiguousarray(prof[:, 1]),
         ctab=np.array(tables, dtype=float),
         tableau=BS23 if sv.adaptive else get_tableau(sv.method), dt=float(sv.dt),
-        n_steps=sv.n_steps, record_every=sv.record_every, y0=y0,
+        n_steps=sv.n_steps, record_every=sv.record_every,
+        energy_every=sv.energy_every, y0=y0,
         atol=atol, rtol=rtol, max_step=float(sv.max_step),
         air_max_step=float(sv.air_max_step), adaptive=sv.adaptive, energy=sv.energy,
         gear_f1=np.array(gear_f1, dtype=np.int64), gear_of=np.array(gear_of, dtype=np.int64),

@@ -153,7 +153,8 @@ def rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, metho
               t=np.ascontiguousarray(t_tab, dtype=float),
               a=np.ascontiguousarray(a_tab, dtype=float),
               b=np.ascontiguousarray(b_tab, dtype=float))
-    fs = FixedStep(dt=float(dt), n_steps=n_steps, record_every=1, A=tab.A, b=tab.b, c=tab.c)
+    fs = FixedStep(dt=float(dt), n_steps=n_steps, record_every=1, energy_every=1, A=tab.A,
+                   b=tab.b, c=tab.c)
     work = RigWork(K=np.zeros(tab.stages * ny), ytmp=np.zeros(ny),
                    hints=np.zeros(3, dtype=np.int64))
     out = RigOutputs(*(np.empty(n_steps + 1) for _ in range(4)))

@@ -179,7 +179,7 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
                                gear_plate=low.gear_plate, gear_exact=low.gear_exact)
     else:
         grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
-                                A=tab.A, b=tab.b, c=tab.c)
+                                energy_every=low.energy_every, A=tab.A, b=tab.b, c=tab.c)
     stepper = kernel.make_stepper(low.dt)  # bs23 carry-over
     return rec, y, ctl, stepper, grid, common
 

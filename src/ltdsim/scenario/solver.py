@@ -65,6 +65,12 @@ class Solver(_Strict):
                            "integrated with the motion (result variables "
                            "traction_energy ... energy_balance_error, J); off, the run "
                            "computes none of it")
+    energy_interval: float = Field(
+        5e-4, gt=0.0, le=1.0,
+        description="fixed step with energy = true: the longest interval between the "
+                    "samples of the brakes', resistances' and couplers' powers for their "
+                    "trapezoids (traction's: every step), a whole number of steps that "
+                    "divides the record interval (every step when none does), s")
     stability_check: bool = Field(
         True, description="refuse a fixed step above the method's largest stable step for "
                           "the train (ltdsim.engine.preflight); false runs it anyway (the run stops "
@@ -101,6 +107,16 @@ class Solver(_Strict):
     def record_every(self) -> int:
         """Steps between two recorded samples."""
         return int(round(self.output_interval / self.dt))
+
+    @property
+    def energy_every(self) -> int:
+        """Steps between two samples of the brakes', resistances' and couplers' powers
+        in the fixed-step energy accounting: the largest whole number of steps that
+        divides :attr:`record_every` and spans at most ``energy_interval`` (1 when none
+        does)."""
+        re_ = self.record_every
+        fit = max(1, int(math.floor(self.energy_interval / self.dt + 1e-9)))
+        return max(d for d in range(1, min(fit, re_) + 1) if re_ % d == 0)
 
     @property
     def n_steps(self) -> int:

@@ -91,6 +91,16 @@ def no_effect(sc) -> list[tuple[str, str]]:
                                                "has no pneumatic states; air_max_step is "
                                                "read by bs23 with the fluid brake "
                                                "(brake.model = 'fluid'): leave it out"))
+    if not solver.energy:
+        out.append(("solver.energy_interval", "has no effect with solver.energy = false; "
+                                              "energy_interval is read by the energy "
+                                              "accounting: set solver.energy = true, or "
+                                              "leave it out"))
+    elif solver.adaptive:
+        out.append(("solver.energy_interval", "has no effect with method = 'bs23', which "
+                                              "integrates the powers as states at its own "
+                                              "stages; energy_interval is read under a "
+                                              "fixed step: leave it out"))
     missing = _not_produced(sc)
     if missing:
         names = ", ".join(f"{n} ({w})" for n, w in missing)

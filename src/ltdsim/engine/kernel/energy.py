@@ -1,8 +1,9 @@
 """The power of every force on the train and the energy accounting (``solver.energy``).
 
-The fixed-step kernel sums each power's trapezoids over its grid (:func:`_account_first`,
-:func:`_account_step`, :func:`_energy_totals`); the adaptive kernel integrates the powers
-as states with the motion (:func:`_energy_rates`). The terms are :data:`ltdsim.engine.layout.ENERGY_TERMS`
+The fixed-step kernel sums each power's trapezoids over its grid (:func:`_account_first`;
+:func:`_account_traction` every step, :func:`_powers` every ``energy_every`` steps;
+:func:`_energy_totals`); the adaptive kernel integrates the powers as states with the
+motion (:func:`_energy_rates`). The terms are :data:`ltdsim.engine.layout.ENERGY_TERMS`
 then one per coupler.
 """
 
@@ -115,19 +116,13 @@ def _account_first(y, tr, w):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
-def _account_step(h, y, tr, w, keep_end):
-    """The energy accounting of :func:`run` at the start of a later step of ``h`` (s),
-    after the right-hand side at ``(t, y)`` (so the forces in :class:`Work` are this
-    state's); ``keep_end``: also leave the powers now in ``w.pw[PW_END]`` for
-    :func:`_energy_totals` (at a recorded step; a constant at each call site).
-
-    On a fixed grid the trapezoids of a power over the steps sum to ``h (the sum of all
-    its samples - (first + latest) / 2)``, so each step only adds the powers now (W) to
-    their running sums (``w.pw[PW_SUM]``) and :func:`_energy_totals` forms the totals
-    where they are recorded. Traction is the exception: the driver's demand is held over
-    a step and jumps where the controller samples, so each step's trapezoid takes its end
-    with the force held over that step (``w.fprev``) and its start from the step before
-    (``w.pw[PW_START]``), and is added to ``w.energy`` here."""
+def _account_traction(h, y, tr, w):
+    """The traction's energy accounting of :func:`run` at the start of every later step
+    of ``h`` (s), after the right-hand side at ``(t, y)`` (so the force in :class:`Work`
+    is this state's): the driver's demand is held over a step and jumps where the
+    controller samples, so each step's trapezoid takes its end with the force held over
+    that step (``w.fprev``) and its start from the step before (``w.pw[PW_START]``, W),
+    and is added to ``w.energy`` (J) here, step by step."""
     pw = w.pw
     e = w.energy
     motor, dyn, held_m, held_d = _traction_powers(y, tr, w, w.fcons, w.fprev)
@@ -138,17 +133,16 @@ def _account_step(h, y, tr, w, keep_end):
     pw[PW_START, E_DYN] = dyn
     for c in range(w.fcons.shape[0]):
         w.fprev[c] = w.fcons[c]
-    _powers(y, tr, w, PW_END if keep_end else -1, True)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
 def _energy_totals(h, w):
-    """The energy totals of :func:`run` at the state just accounted
-    (:func:`_account_first` or :func:`_account_step`, which left its powers in
-    ``w.pw[PW_END]``) into
-    ``w.energy`` (J): each continuous power's running sum over the grid of step ``h``
-    (s) less half its first and its latest sample, times ``h`` (the trapezoids' sum);
-    the traction terms are summed step by step."""
+    """The energy totals of :func:`run` at a recorded state, whose powers :func:`_powers`
+    left in ``w.pw[PW_END]`` (and added to the running sums), into ``w.energy`` (J):
+    each power but traction's, sampled every ``h`` (s: the steps between samples,
+    ``FixedStep.energy_every``, times the step), is its running sum less half its first
+    and its latest sample, times ``h`` (the trapezoids' sum on that grid); the traction
+    terms are summed step by step (:func:`_account_traction`)."""
     pw = w.pw
     for q in range(E_AIR, pw.shape[1]):  # (E_MOTOR, E_DYN first: layout.ENERGY_TERMS)
         w.energy[q] = h * (pw[PW_SUM, q] - 0.5 * (pw[PW_START, q] + pw[PW_END, q]))

@@ -16,7 +16,9 @@ from numba import njit
 from ltdsim.engine.couplers import P_F0, P_RATE
 from ltdsim.engine.kernel.brakes import _air_cut, _air_interpolate, _air_start, _air_step
 from ltdsim.engine.kernel.driver import _brake_commands, _controller, _sample_due
-from ltdsim.engine.kernel.energy import _account_first, _account_step, _energy_totals
+from ltdsim.engine.kernel.energy import (
+    _account_first, _account_traction, _energy_totals, _powers,
+)
 from ltdsim.engine.kernel.recording import _record, _track_peaks
 from ltdsim.engine.kernel.rhs import _train_rhs, _train_rhs_split, rhs, rhs_split
 from ltdsim.engine.kernel.rk import (
@@ -24,7 +26,7 @@ from ltdsim.engine.kernel.rk import (
     scaled_error, step_accepted, step_rejected,
 )
 from ltdsim.engine.kernel.slack import _exerted_error, _relax_in_slack, _slack_throughout
-from ltdsim.engine.kernel.structs import EVENTS_FULL, NONFINITE, OK
+from ltdsim.engine.kernel.structs import EVENTS_FULL, NONFINITE, OK, PW_END
 from ltdsim.engine.layout import (
     D_BCTRL, D_BPLEN, D_BSLEN, D_BSOFF, D_MODE, D_TS, I_PIPE, MODE_SPEED,
 )
@@ -68,6 +70,9 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     energy = w.energy.shape[0] > 0
     # a counter instead of k % record_every: integer division is slow in the loop
     c_rec = k_start % record_every
+    energy_every = fs.energy_every
+    c_sam = k_start % energy_every
+    h_sam = dt * energy_every  # (the sampling interval of the powers but traction's, s)
     for k in range(k_start, k_stop):
         t = k * dt
         # non-finite values persist, so the state is checked only where it is recorded
@@ -86,15 +91,19 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         rhs(t, y, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
         _track_peaks(force, peaks, n - 1, t)
         if energy:  # the work of the step that ended here, from the powers at its ends
+            # (traction every step; the other powers every energy_every steps, which
+            # divides record_every, so that each record is a sample)
             if k == 0:
                 _account_first(y, tr, w)
-            elif c_rec == 0:
-                _account_step(dt, y, tr, w, True)
             else:
-                _account_step(dt, y, tr, w, False)
+                _account_traction(dt, y, tr, w)
+                if c_rec == 0:
+                    _powers(y, tr, w, PW_END, True)
+                elif c_sam == 0:
+                    _powers(y, tr, w, -1, True)
         if c_rec == 0:
             if energy:
-                _energy_totals(dt, w)
+                _energy_totals(h_sam, w)
             _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
                     out)
         _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
@@ -103,6 +112,9 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         c_rec += 1
         if c_rec == record_every:
             c_rec = 0
+        c_sam += 1
+        if c_sam == energy_every:
+            c_sam = 0
     if not _finite(y):
         return NONFINITE, k_stop
     if k_stop == fs.n_steps:
@@ -113,8 +125,9 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
             if k_stop == 0:
                 _account_first(y, tr, w)
             else:
-                _account_step(dt, y, tr, w, True)
-            _energy_totals(dt, w)
+                _account_traction(dt, y, tr, w)
+                _powers(y, tr, w, PW_END, True)
+            _energy_totals(h_sam, w)
         _record(k_stop // record_every, t, y, K, st["a_dem"], st["level"], speed_mode, tr,
                 dr, w, out)
     return OK, k_stop

@@ -79,7 +79,7 @@ N_AIR_ROWS = 9
 
 #: rows of :class:`Work`'s ``pw`` array: :func:`run` keeps the traction's powers at the
 #: step's start, every other power's first sample in the start row, the latest in the
-#: end row and the running sums of its samples (:func:`_account_step`);
+#: end row and the running sums of its samples (:func:`_powers`);
 #: :func:`run_adaptive` passes the powers through the start row (:func:`_energy_rates`)
 PW_START, PW_END, PW_SUM = 0, 1, 2
 
@@ -163,6 +163,8 @@ class FixedStep(NamedTuple):
     dt: float  # step, s
     n_steps: int  # steps of the whole run
     record_every: int  # steps between records
+    energy_every: int  # steps between samples of the body powers (solver.energy), a
+    #                    divisor of record_every
     A: np.ndarray  # (stages, stages) Butcher tableau
     b: np.ndarray  # (stages,) weights
     c: np.ndarray  # (stages,) nodes
