@@ -162,3 +162,16 @@ N_DRIVE_MISC = len(DRIVE_MISC)
 (DS_TORQUE, DS_SPEED, DS_CURRENT, DS_CREEP, DS_FORCE, DS_PDC, DS_PSD, DS_PSQ, DS_PRD,
  DS_PRQ) = layout(*DRIVE_SIGNALS)
 N_DRIVE_SIGNALS = len(DRIVE_SIGNALS)
+
+#: bounds of a plausible state, checked at every record (:func:`ltdsim.engine.kernel.
+#: recording._implausible`): a state beyond them is a run that has blown up while staying
+#: finite (an explicit method past its stability limit with solver.stability_check off,
+#: say), and the run stops there instead of reporting it. No rail vehicle has run faster
+#: than 160 m/s (574.8 km/h, TGV V150, 2007): 1,000 m/s is beyond any train. A coupler
+#: deflected by more than 10 m has its vehicles through each other or apart by a car's
+#: length, where the longest gear travels 0.2 m. A brake pipe below vacuum or above 100
+#: bar (absolute) is beyond any air brake (pipes run at 5-7.6 bar gauge, main reservoirs
+#: at 8-10.3 bar).
+ABSURD_SPEED = 1e3  # m/s
+ABSURD_DEFLECTION = 10.0  # m
+ABSURD_PRESSURE = 1e7  # Pa, absolute

@@ -12,7 +12,10 @@ import numpy as np
 
 from ltdsim.engine import kernel
 from ltdsim.engine.integrators import get_tableau
-from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, N_EVENT_COLUMNS
+from ltdsim.engine.layout import (
+    ABSURD_DEFLECTION, ABSURD_PRESSURE, ABSURD_SPEED, I_CELLS, I_PIPE, N_DRIVE_SIGNALS,
+    N_ENERGY, N_EVENT_COLUMNS,
+)
 from ltdsim.engine.lowering import MAX_EVENTS, N_DRIVE_STATES, Lowered
 from ltdsim.errors import ScenarioError, SimulationError
 from ltdsim.physics.air.brakevalves import N_CV, N_DV
@@ -228,6 +231,8 @@ def integrate(low: Lowered, scenario: Scenario, progress, chunks):
             raise SimulationError(
                 f"more than {MAX_EVENTS} brake commands by t = {t_at:.6g} s; raise "
                 "brake.level_step or give fewer commands", time=t_at)
+        if status == kernel.ABSURD:
+            raise _absurd_error(scenario, low, y, t_at)
         if status != kernel.OK:
             raise _nonfinite_error(scenario, low, y, t_at)
         if progress is not None:
@@ -276,6 +281,46 @@ def _nonfinite_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) 
                      f"deflection = {d[j]:.6g} m")
     parts.append("hint: reduce solver.dt (or bs23 tolerances), or check stiffness and damping "
                  "against the masses")
+    return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
+
+
+def _absurd_error(scenario: Scenario, low: Lowered, y: np.ndarray, t: float) -> SimulationError:
+    """The run stopped at time ``t`` (s) with the finite state ``y`` beyond a physical
+    bound (:data:`ltdsim.engine.layout.ABSURD_SPEED`, ``ABSURD_DEFLECTION``,
+    ``ABSURD_PRESSURE``): what is beyond which bound, the first few of each, and what to
+    change."""
+    n = low.n
+    v = y[n:2 * n]
+    d = y[:n - 1] - y[1:n] + low.d0 if n > 1 else np.zeros(0)
+    parts = [f"the run blew up by t = {t:.6g} s: its state stayed finite but went beyond "
+             "any physical bound (checked at every record)"]
+    fast = np.flatnonzero(np.abs(v) > ABSURD_SPEED)
+    if fast.size:
+        parts.append(", ".join(f"vehicle {i + 1} ({scenario.vehicles[i].name!r}) at "
+                               f"{v[i]:.3g} m/s" for i in fast[:3])
+                     + (f" and {fast.size - 3} more" if fast.size > 3 else "")
+                     + f" (1 = lead; beyond {ABSURD_SPEED:g} m/s)")
+    far = np.flatnonzero(np.abs(d) > ABSURD_DEFLECTION)
+    if far.size:
+        parts.append(", ".join(f"coupler {j + 1} deflected {d[j]:.3g} m" for j in far[:3])
+                     + (f" and {far.size - 3} more" if far.size > 3 else "")
+                     + f" (beyond {ABSURD_DEFLECTION:g} m)")
+    zp = int(low.air_index[I_PIPE])
+    if zp >= 0:
+        p = y[zp:zp + int(low.air_index[I_CELLS])]
+        bad = np.flatnonzero((p < 0.0) | (p > ABSURD_PRESSURE))
+        if bad.size:
+            c = int(bad[0])
+            parts.append(f"brake pipe cell {c + 1} of {p.size} (1 = lead end) at "
+                         f"{p[c]:.3g} Pa absolute (bounds 0 to {ABSURD_PRESSURE:g} Pa)")
+    i = int(fast[0]) if fast.size else None
+    j = int(far[0]) if far.size else None
+    hint = ("hint: reduce solver.dt or use the adaptive bs23" if not low.adaptive else
+            "hint: tighten solver.rtol and solver.atol")
+    if not scenario.solver.stability_check:
+        hint += ", and turn solver.stability_check back on (it is off: it refuses a fixed " \
+                "step its method cannot keep stable)"
+    parts.append(hint + "; check stiffness and damping against the masses")
     return SimulationError("; ".join(parts), time=t, vehicle=i, coupler=j)
 
 

@@ -61,7 +61,7 @@ from ltdsim.engine.kernel.rk import _advance, _stages
 from ltdsim.engine.kernel.slack import _relax_in_slack
 from ltdsim.engine.kernel.stepping import run, run_adaptive
 from ltdsim.engine.kernel.structs import (
-    EVENTS_FULL, N_PEAKS, N_SCALARS, NONFINITE, OK, PK_MAX, PK_MIN, PK_TMAX,
+    ABSURD, EVENTS_FULL, N_PEAKS, N_SCALARS, NONFINITE, OK, PK_MAX, PK_MIN, PK_TMAX,
     PK_TMIN, SG_ADEM, SG_ADHESION, SG_BRAKE, SG_DEMAND, SG_TRACTION, SG_VREF, Adaptive,
     AirBrake, Controller, CouplerArrays, Drive, DriverArrays, FixedStep, Outputs, Train,
     Work, make_controller, make_couplers, make_driver, make_stepper, make_train,
@@ -70,7 +70,7 @@ from ltdsim.engine.kernel.structs import (
 from ltdsim.engine.kernel.tables import _interp, _segment
 
 __all__ = [
-    "EVENTS_FULL", "N_PEAKS", "N_SCALARS", "NONFINITE", "OK", "PK_MAX",
+    "ABSURD", "EVENTS_FULL", "N_PEAKS", "N_SCALARS", "NONFINITE", "OK", "PK_MAX",
     "PK_MIN", "PK_TMAX", "PK_TMIN", "SG_ADEM", "SG_ADHESION", "SG_BRAKE", "SG_DEMAND",
     "SG_TRACTION", "SG_VREF", "Adaptive", "AirBrake", "Controller", "CouplerArrays", "Drive",
     "DriverArrays", "FixedStep", "Outputs", "Train", "Work", "make_controller",

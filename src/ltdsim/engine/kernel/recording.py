@@ -12,9 +12,10 @@ from ltdsim.engine.kernel.structs import (
     SG_TRACTION, SG_VREF,
 )
 from ltdsim.engine.kernel.tables import _interp
+from ltdsim.engine.couplers import P_D0
 from ltdsim.engine.layout import (
-    A_ATM, I_EXH, I_PIPE, K_MADH, K_VEH, N_DRIVE_SIGNALS, T_EZ, T_G, V_BCELL, V_BPFS, V_BZ,
-    V_MASS, V_P0,
+    A_ATM, ABSURD_DEFLECTION, ABSURD_PRESSURE, ABSURD_SPEED, I_CELLS, I_EXH, I_PIPE, K_MADH,
+    K_VEH, N_DRIVE_SIGNALS, T_EZ, T_G, V_BCELL, V_BPFS, V_BZ, V_MASS, V_P0,
 )
 from ltdsim.physics.air.brakevalves import CV_AUX, CV_CYL
 from ltdsim.physics.drive.traction import adhesion_max
@@ -114,3 +115,27 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
     else:
         out_s[r, SG_VREF] = np.nan
         out_s[r, SG_ADEM] = np.nan
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _implausible(y, tr, cpl):
+    """The first part of the finite state ``y`` beyond any physical bound
+    (:data:`ltdsim.engine.layout.ABSURD_SPEED`, ``ABSURD_DEFLECTION``,
+    ``ABSURD_PRESSURE``), or -1: vehicle ``i``'s speed as ``i``, coupler ``j``'s
+    deflection (``cpl`` the couplers' rows) as ``n + j``, the brake pipe's cell ``c``
+    as ``2 n - 1 + c``. Checked where the state is recorded: a run that blows up while
+    staying finite stops there (:data:`~ltdsim.engine.kernel.structs.ABSURD`)."""
+    n = tr.veh.shape[0]
+    for i in range(n):
+        if abs(y[n + i]) > ABSURD_SPEED:
+            return i
+    for j in range(n - 1):
+        if abs(y[j] - y[j + 1] + cpl[j, P_D0]) > ABSURD_DEFLECTION:
+            return n + j
+    zp = tr.air.index[I_PIPE]
+    if zp >= 0:
+        for c in range(tr.air.index[I_CELLS]):
+            p = y[zp + c]
+            if p < 0.0 or p > ABSURD_PRESSURE:
+                return 2 * n - 1 + c
+    return -1

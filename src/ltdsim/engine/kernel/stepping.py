@@ -19,14 +19,14 @@ from ltdsim.engine.kernel.driver import _brake_commands, _controller, _sample_du
 from ltdsim.engine.kernel.energy import (
     _account_first, _account_traction, _energy_totals, _powers,
 )
-from ltdsim.engine.kernel.recording import _record, _track_peaks
+from ltdsim.engine.kernel.recording import _implausible, _record, _track_peaks
 from ltdsim.engine.kernel.rhs import _train_rhs, _train_rhs_split, rhs, rhs_split
 from ltdsim.engine.kernel.rk import (
     MIN_STEP, _advance, _finite, _stages, max_scaled_error, pair_error, pair_solution,
     scaled_error, step_accepted, step_rejected,
 )
 from ltdsim.engine.kernel.slack import _exerted_error, _relax_in_slack, _slack_throughout
-from ltdsim.engine.kernel.structs import EVENTS_FULL, NONFINITE, OK, PW_END
+from ltdsim.engine.kernel.structs import ABSURD, EVENTS_FULL, NONFINITE, OK, PW_END
 from ltdsim.engine.layout import (
     D_BCTRL, D_BPLEN, D_BSLEN, D_BSOFF, D_MODE, D_TS, I_PIPE, MODE_SPEED,
 )
@@ -47,7 +47,9 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
     Returns ``(status, k)``: ``OK`` and ``k_stop``; ``NONFINITE`` and the first
     checked step whose state is not finite (``y`` then holds that state; the state is
     checked at every record step and at ``k_stop``, so it became non-finite after the
-    last record step before ``k``); ``EVENTS_FULL`` and the step.
+    last record step before ``k``); ``ABSURD`` and the first such step whose state is
+    finite but beyond any physical bound (:func:`_implausible`; ``y`` holds it);
+    ``EVENTS_FULL`` and the step.
     """
     A = fs.A
     B = fs.b
@@ -77,8 +79,11 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         t = k * dt
         # non-finite values persist, so the state is checked only where it is recorded
         # (and at the chunk's end), not after every step
-        if c_rec == 0 and not _finite(y):
-            return NONFINITE, k
+        if c_rec == 0:
+            if not _finite(y):
+                return NONFINITE, k
+            if _implausible(y, tr, cp.par) >= 0:
+                return ABSURD, k
         sampled = speed_mode and _sample_due(t, st, ts, half)
         if sampled:
             _controller(t, y, ctl, tr, dr, w)
@@ -117,6 +122,8 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
             c_sam = 0
     if not _finite(y):
         return NONFINITE, k_stop
+    if _implausible(y, tr, cp.par) >= 0:
+        return ABSURD, k_stop
     if k_stop == fs.n_steps:
         t = k_stop * dt
         rhs(t, y, st["a_dem"], st["n_events"], tr, cp, dr, ctl.events, w, K[0:ny])
@@ -160,7 +167,9 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     ``y`` are brought up to date at every record.
 
     Returns ``(status, t)``: ``OK``; ``NONFINITE`` when no step size down to 1e-12 s
-    gives a finite state (``y`` holds the last good state at ``t``); ``EVENTS_FULL``.
+    gives a finite state (``y`` holds the last good state at ``t``); ``ABSURD`` at the
+    first record time whose state is beyond any physical bound (:func:`_implausible`;
+    ``y`` holds it); ``EVENTS_FULL``.
     """
     drv = dr.par
     st = ctl.state[0]
@@ -239,6 +248,8 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             if r < r_stop or r == n_rec - 1:
                 if split:
                     _air_interpolate(t, tr, w, y)
+                if _implausible(y, tr, cp.par) >= 0:
+                    return ABSURD, t
                 _record(r, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w, out)
             r += 1
         if t >= t_stop - eps or t >= t_last - eps:

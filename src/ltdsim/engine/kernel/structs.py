@@ -24,8 +24,9 @@ from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, V_MASS, V_SHARE
 from ltdsim.physics.control import PID_STATE
 from ltdsim.physics.drive.foc import N_OUT
 
-#: kernel return codes
-OK, NONFINITE, EVENTS_FULL = 0, 1, 2
+#: kernel return codes: done, a state not finite, the brake-command table full, a finite
+#: state beyond any physical bound (recording._implausible)
+OK, NONFINITE, EVENTS_FULL, ABSURD = 0, 1, 2, 3
 
 #: columns of the recorded scalar signals
 SG_TRACTION, SG_VREF, SG_ADHESION, SG_ADEM, SG_DEMAND, SG_BRAKE = range(6)
