@@ -320,12 +320,16 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
         # transitions and profile through Track.resistance_curve, checked there)
         Track: set(track) | {"transitions", "cant", "profile", "profile_file",
                              "rail_spacing"},
-        Solver: set(solver) | {"stability_check", "record", "energy"},  # (a check at
-        #       validation; energy just above)
+        Solver: set(solver) | {"stability_check", "record", "energy", "energy_interval"},
+        #       (a check at validation; energy just above; energy_interval below)
         Initial: {"speed", "velocities", "couplers"},
     }
     for cls, keys in placed.items():
         assert set(cls.model_fields) <= keys, (cls.__name__, set(cls.model_fields) - keys)
+    # energy_interval: 4 ms under a fixed 0.2 ms step with records every 2 ms -> every 10
+    fixed = sc.with_overrides({"solver.method": "ode3", "solver.energy": True,
+                               "solver.energy_interval": 4e-3})
+    assert lower(fixed).energy_every == 10 and lower(fixed).record_every == 10
 
 
 def test_every_fluid_brake_key_lands_in_its_column_or_row():
