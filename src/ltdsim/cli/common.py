@@ -20,6 +20,7 @@ from rich.text import Text
 
 from ltdsim.errors import LtdsimError, ScenarioError, SimulationError
 from ltdsim.progress import Display
+from ltdsim.results.outputs import check_output_files  # noqa: F401 (the commands' name)
 
 console = Console()
 err_console = Console(stderr=True)
@@ -241,18 +242,6 @@ def check_new(path: Optional[Path], option: str) -> None:
         raise ScenarioError(option, [("", f"{path} exists; ltdsim does not write over an "
                                           "existing file: choose a new name, or remove it "
                                           "first")])
-
-
-def check_output_files(folder: Path, names, option: str = "--output") -> None:
-    """Refuse, before any work, a file name the command writes in ``folder`` (each of
-    ``names``) that is taken by something other than a file (a folder): writing it would
-    fail only after the work."""
-    for name in names:
-        path = folder / name
-        if path.exists() and not path.is_file():
-            raise ScenarioError(option, [("", f"{path} is a folder where this command "
-                                              "writes a file; move or remove it, or choose "
-                                              f"another {option}")])
 
 
 def check_folder(path: Path, option: str = "--output") -> None:
