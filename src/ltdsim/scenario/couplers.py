@@ -359,17 +359,22 @@ _UNKNOWN_TAG = "[unknown model]"
 ALTERNATIVE_KEYS = {"S": "S_table", "S_table": "S"}
 
 
+def over(base: dict, given: dict) -> dict:
+    """``base`` (a preset's or a default's keys) with the ``given`` keys over it, in place:
+    a key of :data:`ALTERNATIVE_KEYS` given alone drops its alternative from ``base``."""
+    for key in given:
+        if key in ALTERNATIVE_KEYS and ALTERNATIVE_KEYS[key] not in given:
+            base.pop(ALTERNATIVE_KEYS[key], None)
+    base.update(given)
+    return base
+
+
 def _merge_preset(data):
     """``preset = NAME``: the preset's keys under the ones given (None values dropped; S or
     S_table given replaces the preset's other one)."""
     if isinstance(data, dict) and data.get("preset"):
         base = load_preset("gears", data["preset"])
-        given = {k: v for k, v in data.items() if v is not None}
-        for key in given:
-            if key in ALTERNATIVE_KEYS and ALTERNATIVE_KEYS[key] not in given:
-                base.pop(ALTERNATIVE_KEYS[key], None)
-        base.update(given)
-        return base
+        return over(base, {k: v for k, v in data.items() if v is not None})
     return data
 
 

@@ -20,7 +20,7 @@ from ltdsim.errors import ScenarioError
 
 from ltdsim.scenario._base import MAX_VEHICLES, _Strict, _set_dotted
 from ltdsim.scenario.brakes import Brake, valve_tables
-from ltdsim.scenario.couplers import ALTERNATIVE_KEYS, COUPLER_CLASSES, Couplers, DEFAULT_COUPLER_MODEL, SHARED_COUPLER_KEYS, _COUPLER_ADAPTER, _CouplerBase
+from ltdsim.scenario.couplers import COUPLER_CLASSES, Couplers, DEFAULT_COUPLER_MODEL, SHARED_COUPLER_KEYS, _COUPLER_ADAPTER, _CouplerBase, over
 from ltdsim.scenario.driver import Driver
 from ltdsim.scenario.messages import _problems
 from ltdsim.scenario.solver import Solver
@@ -285,10 +285,7 @@ class Scenario(_Strict):
                 # another model: the keys every model shares carry over, not the old
                 # model's own
                 params = {k: params[k] for k in SHARED_COUPLER_KEYS}
-            for key in changed:  # S_table given replaces the default's S, and S S_table
-                if key in ALTERNATIVE_KEYS and ALTERNATIVE_KEYS[key] not in changed:
-                    params.pop(ALTERNATIVE_KEYS[key], None)
-            params.update(changed)
+            over(params, changed)  # (S_table given replaces the default's S, S its S_table)
         return _COUPLER_ADAPTER.validate_python(params)
 
     @classmethod
