@@ -25,6 +25,15 @@ COMPILING = "compiling (first run only)"
 REDRAW_INTERVAL = 0.1
 
 
+def remaining(seconds: float) -> str:
+    """A time left in words: ``45 s``, ``12 min``, ``3.5 h``."""
+    if seconds < 60.0:
+        return f"{seconds:.0f} s"
+    if seconds < 3600.0:
+        return f"{seconds / 60.0:.0f} min"
+    return f"{seconds / 3600.0:.1f} h"
+
+
 class _Remaining(TimeRemainingColumn):
     """Time remaining, blank for tasks without a known total (compile, stages)."""
 
@@ -133,6 +142,12 @@ class Display:
             self.console.print(f"{time.strftime('%H:%M:%S')} {text}", markup=False,
                                highlight=False, soft_wrap=True)
 
+    def info(self, text: str) -> None:
+        """A line worth reading before long work starts (a run's estimate): above the
+        live display on a terminal, timestamped in a log; nothing when ``quiet``."""
+        if not self.quiet:
+            self.note(text)
+
     def _due(self, key: str, force: bool = False) -> bool:
         now = time.monotonic()
         last = self._last_line.get(key)
@@ -181,7 +196,10 @@ class Display:
                 self._progress.update(task, completed=done, info=info(done))
                 return
             if self._due(description, force=first or done >= total):
-                took = "" if first else f", {time.monotonic() - t0:.0f} s"
+                spent = time.monotonic() - t0
+                took = "" if first else f", {spent:.0f} s"
+                if not first and 0.0 < done < total:  # the time left at the rate so far
+                    took += f", about {remaining(spent * (total - done) / done)} left"
                 self.log(f"{description}: {info(done)}{took}")
         return update
 

@@ -83,29 +83,48 @@ def scenario_label(sc) -> str:
     return sc.name + (f" [{sc.case}]" if sc.case else "")
 
 
-def simulate_shown(sc, quiet: bool = False, source=None, step_source=None):
+#: how a command that simulates but has no ``--max-time`` of its own lets a long run go
+LONG_RUN = ("run it with `ltdsim run FILE --max-time SECONDS --output RESULT.nc` and "
+            "analyse the saved result")
+#: how ``ltdsim run`` lets a long run go
+MAX_TIME_ANYWAY = "give --max-time SECONDS (0: no limit)"
+MaxTimeOpt = Annotated[Optional[float], typer.Option(
+    "--max-time", help="refuse a run estimated to take longer than this, s of wall time "
+                       "(default 3600; 0: no limit)")]
+
+
+def simulate_shown(sc, quiet: bool = False, source=None, step_source=None,
+                   max_time: float | None = None, anyway: str = LONG_RUN):
     """Simulate ``sc``: refuse a fixed step above the method's largest stable step
-    (naming ``step_source``, the ``--set`` that asked for it, or else ``source``) and a
-    recording too large for the memory available (naming ``source``, the scenario file),
-    warn about a step near the largest stable one, compile or load its kernel
-    ("compiling (first run only)"), then a progress bar of simulated seconds on stderr
-    (plain lines in a log)."""
+    (naming ``step_source``, the ``--set`` that asked for it, or else ``source``), a
+    recording too large for the memory available and a run estimated to take longer
+    than ``max_time`` seconds (default :data:`ltdsim.engine.run.TIME_LIMIT`; 0 for no
+    limit; ``anyway`` says how to raise it), naming ``source``, the scenario file;
+    print the estimate of a run over :data:`~ltdsim.engine.run.ANNOUNCE_TIME`; warn about
+    a step near the largest stable one, compile or load its kernel ("compiling (first
+    run only)"), then a progress bar of simulated seconds on stderr (plain lines in a
+    log, with the time left)."""
     from ltdsim.engine.preflight import check, warning
-    from ltdsim.engine.run import check_memory
+    from ltdsim.engine.run import ANNOUNCE_TIME, TIME_LIMIT, check_memory, check_time
     from ltdsim.engine.warmup import scenario_kernels, warm_up
     from ltdsim.results.simulate import simulate
 
-    lim = check(sc, step_source or (None if source is None else str(source)))
-    check_memory(sc, source=None if source is None else str(source))
+    where = None if source is None else str(source)
+    lim = check(sc, step_source or where)
+    check_memory(sc, source=where)
+    limit = TIME_LIMIT if max_time is None else (max_time or None)
+    est = check_time(sc, limit, step_source or where, anyway)
     near = warning(lim)
     if near:
         err_console.print(f"[yellow]warning:[/] {escape(near)}", soft_wrap=True)
     with Display(err_console, quiet=quiet) as show:
+        if est.seconds > ANNOUNCE_TIME:
+            show.info(f"estimate for {scenario_label(sc)}: {est.line()}")
         warm_up(scenario_kernels([sc]), show.compiling)
         update = show.bar(f"simulating {scenario_label(sc)}", sc.solver.n_steps * sc.solver.dt,
                           "s simulated", "{:.1f}")
         update(0.0)
-        return simulate(sc, progress=lambda done, total: update(done))
+        return simulate(sc, progress=lambda done, total: update(done), time_limit=None)
 
 
 def fail(exc: LtdsimError) -> None:

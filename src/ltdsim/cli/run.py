@@ -13,9 +13,9 @@ from rich.markup import escape
 
 from ltdsim.errors import ScenarioError, SimulationError
 from ltdsim.cli.common import (
-    COUPLER_COL, RESULT_SUFFIXES, SET_HELP, check_folder, check_output, console,
-    err_console, fail, image_suffixes, parse_set, plain_table, say, scenario_label,
-    simulate_shown,
+    COUPLER_COL, MAX_TIME_ANYWAY, RESULT_SUFFIXES, SET_HELP, MaxTimeOpt, check_folder,
+    check_number, check_output, console, err_console, fail, image_suffixes, parse_set,
+    plain_table, say, scenario_label, simulate_shown,
 )
 
 
@@ -32,6 +32,7 @@ def run(
         "--report", help="write a one-page HTML report of the run (coupler peaks and, when the "
                          "scenario has a curving table, the curving-safety section) into "
                          "this folder")] = None,
+    max_time: MaxTimeOpt = None,
 ) -> None:
     """Simulate one scenario (optionally one named case) and summarise coupler forces."""
     from ltdsim.results.io import save_result
@@ -39,6 +40,9 @@ def run(
     from ltdsim.results.summary import coupler_summary, critical_rows, run_summary, travel_warning
 
     try:
+        if max_time is not None:
+            check_number("--max-time", max_time, lo=0.0, unit="s",
+                         reason="0 means no limit")
         check_output(output, "--output", RESULT_SUFFIXES, inputs=(file,))
         if plot is not None:  # (matplotlib only when a figure is asked for)
             check_output(plot, "--plot", image_suffixes(), inputs=(file,))
@@ -68,7 +72,8 @@ def run(
                                                 curving_plot})
                    if report is not None else [])
         label = scenario_label(sc)  # plain text: _table keeps it so
-        ds = simulate_shown(sc, quiet, file, "--set" if set_ else None)
+        ds = simulate_shown(sc, quiet, file, "--set" if set_ else None, max_time,
+                            MAX_TIME_ANYWAY)
     except (ScenarioError, SimulationError) as exc:
         fail(exc)
         return

@@ -42,6 +42,7 @@ above: a real run meets the stiffest state only now and then.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -195,15 +196,19 @@ class StepLimit:
         return ", ".join(better) + (" or " if better else "") + "the adaptive bs23"
 
 
-def step_limit(scenario, couplers=None) -> StepLimit | None:
+def step_limit(scenario, couplers=None, method: str | None = None,
+               fluid: bool = True) -> StepLimit | None:
     """The largest stable step of ``scenario``'s fixed-step method (None for the adaptive
-    bs23, whose error control keeps its steps stable). ``couplers``: the merged parameters
-    of every coupler, if at hand (else ``scenario.coupler(j)``)."""
+    bs23, whose error control keeps its steps stable), or of ``method`` if given (any
+    method, also for a bs23 scenario). ``couplers``: the merged parameters of every
+    coupler, if at hand (else ``scenario.coupler(j)``). ``fluid = False`` leaves the fluid
+    brake's pipe and valves out (bs23 steps them apart, :func:`expected_steps`)."""
     from ltdsim.engine.couplers import fastest_lag
 
     sv = scenario.solver
-    if sv.adaptive:
+    if sv.adaptive and method is None:
         return None
+    method = method or sv.method
     masses = [v.mass for v in scenario.vehicles]
     if couplers is None:
         couplers = [scenario.coupler(j) for j in range(scenario.n_couplers)]
@@ -219,8 +224,9 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
     if any(v.brake is not None for v in scenario.vehicles):
         b = scenario.brake
         if b.model == "fluid":
-            pipe, valves = fluid_rates(scenario)
-            lags += valves
+            if fluid:
+                pipe, valves = fluid_rates(scenario)
+                lags += valves
         else:
             lags.append(("brake.apply_time_constant", b.apply_time_constant))
             lags.append(("brake.release_time_constant", b.release_time_constant))
@@ -247,6 +253,7 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
                     mass * tr.brake_fade / braking)
             if standstill is None or band[1] < standstill[1]:
                 standstill = band
+    lags += drive_lags(scenario)
     omega, zeta = highest_mode(masses, ks, cs)
     lag = min(lags, key=lambda t: t[1]) if lags else None
 
@@ -259,8 +266,81 @@ def step_limit(scenario, couplers=None) -> StepLimit | None:
         return h
 
     others = {m: limit(m) for m in TABLEAUX}
-    return StepLimit(sv.method, sv.dt, others[sv.method], omega, zeta,
+    return StepLimit(method, sv.dt, others[method], omega, zeta,
                      max(ks) if ks else 0.0, lag, others, pipe, standstill)
+
+
+#: bs23's steps (accepted and rejected) over ``t_end`` divided by the stiffest-rate step
+#: of :func:`expected_steps`, as measured on the shipped bs23 scenarios (200 s of each:
+#: 1.0 to 2.0; docs/solver.md "Estimates"): the estimate's factor
+ADAPTIVE_STEP_FACTOR = 2.0
+
+
+@dataclass(frozen=True)
+class StepCount:
+    """How many steps a run takes: exactly for a fixed step, estimated for bs23."""
+
+    steps: float  #: steps of the train's states (bs23: accepted and rejected), -
+    h: float  #: the step that sets the count, s
+    what: str  #: what sets that step, in words
+    air_steps: float = 0.0  #: bs23 with the fluid brake: the pneumatic states' steps, -
+    air_h: float = math.inf  #: the step that sets ``air_steps``, s
+    air_what: str = ""
+
+
+def expected_steps(scenario) -> StepCount:
+    """The steps a run of ``scenario`` takes. Fixed step: ``solver.n_steps``. bs23: from
+    the stiffest rate, ``ADAPTIVE_STEP_FACTOR x t_end / h`` with ``h`` the smaller of
+    ``solver.max_step`` and the largest step the pair (ode3's stability region) keeps
+    stable on the train linearised at its stiffest (:func:`step_limit` without the fluid
+    brake); with the fluid brake also the pneumatic states' steps, from
+    ``solver.air_max_step`` and the pipe's and valves' fastest rates (:func:`fluid_rates`).
+    An error control that meets its tolerances with longer steps than the stiffest
+    state allows takes fewer; the estimate is for planning, good to a factor of about 2."""
+    sv = scenario.solver
+    if not sv.adaptive:
+        return StepCount(float(sv.n_steps), sv.dt, f"solver.dt = {sv.dt:g} s ({sv.method})")
+    t_end = sv.n_steps * sv.dt
+    lim = step_limit(scenario, method="ode3", fluid=False)
+    if lim.limit < sv.max_step:
+        h, what = lim.limit, f"the stiffest rate, {lim.reason()}"
+    else:
+        h, what = sv.max_step, f"solver.max_step = {sv.max_step:g} s"
+    count = StepCount(ADAPTIVE_STEP_FACTOR * t_end / h, h, what)
+    if scenario.brake.model != "fluid" or not any(v.brake is not None
+                                                  for v in scenario.vehicles):
+        return count
+    pipe, valves = fluid_rates(scenario)
+    air_h, air_what = sv.air_max_step, f"solver.air_max_step = {sv.air_max_step:g} s"
+    r_pipe = imaginary_radius("ode3") / pipe if pipe > 0.0 else math.inf
+    if r_pipe < air_h:
+        air_h, air_what = r_pipe, f"the brake pipe's fastest wave, {pipe:.3g} 1/s"
+    for name, tau in valves:
+        if real_radius("ode3") * tau < air_h:
+            air_h, air_what = real_radius("ode3") * tau, f"{name} = {tau:.3g} s"
+    return dataclasses.replace(count, air_steps=ADAPTIVE_STEP_FACTOR * t_end / air_h,
+                               air_h=air_h, air_what=air_what)
+
+
+def drive_lags(scenario) -> list[tuple[str, float]]:
+    """The fastest first-order lags of the induction drives, ``(what, tau s)``: for each
+    consist on the induction drive its current loops' time constant
+    ``1 / (2 pi current_bandwidth)`` and its stator's transient time constant
+    ``sigma L_s / R_sigma`` (the plant pole the loops' PI cancels, which stays a mode of
+    the state); empty without an induction drive."""
+    from ltdsim.physics.drive import foc
+
+    tr = scenario.traction
+    ks = [k + 1 for k, loco in enumerate(scenario.consists())
+          if (loco.drive or tr.drive) == "induction"]
+    if not ks:
+        return []
+    c = foc.controller_row(tr.motor.motor())
+    which = f"consist {ks[0]}" if len(ks) == 1 else f"consists {', '.join(map(str, ks))}"
+    return [(f"the induction drive's current loops ({which}), 1 / (2 pi "
+             "traction.motor.current_bandwidth)", 1.0 / c[foc.C_WC]),
+            (f"the induction drive's stator transient ({which}), sigma L_s / R_sigma "
+             "of traction.motor", c[foc.C_SIGMA] * c[foc.C_LS] / c[foc.C_RSIG])]
 
 
 def _braking_force(scenario, loco, f_max) -> float:

@@ -5,8 +5,11 @@ the records into the result."""
 
 from __future__ import annotations
 
+import math
 import os
+import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -131,6 +134,115 @@ def check_memory(scenario: Scenario, source: str | None = None, parallel: int = 
 
 
 
+#: The cost model of :func:`estimate`, seconds of wall time on one core, measured on the
+#: project's 2-core reference machine with the shipped scenarios (docs/solver.md
+#: "Estimates"): a fixed-step stage per vehicle; a bs23 stage per vehicle (its error
+#: norm and step control included); an induction drive per stage; one fluid-brake
+#: pipe cell per pneumatic step (its valves included)
+SECONDS_PER_FIXED_STAGE_VEHICLE = 1.4e-8
+SECONDS_PER_ADAPTIVE_STAGE_VEHICLE = 2.5e-8
+SECONDS_PER_DRIVE_STAGE = 1.3e-7
+SECONDS_PER_AIR_CELL_STEP = 2.5e-7
+#: a run estimated to take longer than this (s) is refused unless the caller raises
+#: the limit (``--max-time`` of the commands; ``time_limit`` of ``ltdsim.simulate``)
+TIME_LIMIT = 3600.0
+#: a run estimated to take longer than this (s) has its estimate printed before it starts
+ANNOUNCE_TIME = 60.0
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What a run will take, before it starts (:func:`estimate`)."""
+
+    steps: float  #: steps of the train's states, - (bs23: an estimate)
+    air_steps: float  #: bs23 with the fluid brake: steps of the pneumatic states, -
+    seconds: float  #: wall time on one core of the reference machine, s
+    bytes: int  #: memory, bytes (:func:`recording_bytes`)
+    what: str  #: what sets the step, in words
+    exact: bool  #: the step count is exact (fixed step), not estimated (bs23)
+
+    def line(self, wall: bool = True) -> str:
+        """The estimate in words, e.g. ``2,700,000 steps (step set by solver.dt = 0.0001
+        s (ode3)), about 1 min 30 s and 0.0328 GB of memory`` (without the time when not
+        ``wall``)."""
+        steps = f"{self.steps:,.0f} steps" if self.exact else f"about {self.steps:,.0f} steps"
+        air = (f" and about {self.air_steps:,.0f} pneumatic steps" if self.air_steps else "")
+        took = f"about {duration(self.seconds)} and " if wall else ""
+        return f"{steps}{air} (step set by {self.what}), {took}{_gb(self.bytes)} of memory"
+
+
+def duration(seconds: float) -> str:
+    """A wall time in words: ``0.4 s``, ``45 s``, ``12 min 05 s``, ``3 h 20 min``,
+    ``1.2e+04 days``."""
+    if not math.isfinite(seconds):
+        return "forever"
+    if seconds < 10.0:
+        return f"{seconds:.2g} s"
+    if seconds < 60.0:
+        return f"{seconds:.0f} s"
+    if seconds < 3600.0:
+        m, sec = divmod(round(seconds), 60)
+        return f"{m} min {sec:02d} s"
+    if seconds < 86400.0 * 3:
+        h, m = divmod(round(seconds / 60.0), 60)
+        return f"{h} h {m:02d} min"
+    return f"{seconds / 86400.0:.3g} days"
+
+
+def estimate(scenario: Scenario) -> Estimate:
+    """Steps, wall time and memory a run of ``scenario`` will take, from the scenario
+    alone (nothing is allocated or compiled): the steps of
+    :func:`ltdsim.engine.preflight.expected_steps` (exact for a fixed step; for bs23 from
+    the stiffest rate), each costed by the model above (vehicles, induction drives and
+    pipe cells per stage), and :func:`recording_bytes`. Good to a factor of about 2 on
+    the reference machine; the progress line corrects it as the run goes."""
+    from ltdsim.engine.preflight import expected_steps
+
+    sv = scenario.solver
+    count = expected_steps(scenario)
+    n = scenario.n_vehicles
+    nd = sum((loco.drive or scenario.traction.drive) == "induction"
+             for loco in scenario.consists())
+    fluid = scenario.brake.model == "fluid" and any(v.brake is not None
+                                                    for v in scenario.vehicles)
+    cells = n * scenario.brake.fluid.cells_per_vehicle if fluid else 0
+    if sv.adaptive:
+        per_step = 4 * (n * SECONDS_PER_ADAPTIVE_STAGE_VEHICLE + nd * SECONDS_PER_DRIVE_STAGE)
+        air = count.air_steps * cells * SECONDS_PER_AIR_CELL_STEP
+    else:
+        stages = get_tableau(sv.method).stages
+        per_step = (stages * (n * SECONDS_PER_FIXED_STAGE_VEHICLE
+                              + nd * SECONDS_PER_DRIVE_STAGE)
+                    + cells * SECONDS_PER_AIR_CELL_STEP)
+        air = 0.0
+    return Estimate(count.steps, count.air_steps, count.steps * per_step + air,
+                    recording_bytes(scenario), count.what
+                    + (f"; pneumatic steps by {count.air_what}" if count.air_steps else ""),
+                    not sv.adaptive)
+
+
+#: how a library caller runs a long run anyway (the commands name their own option)
+LIBRARY_ANYWAY = "pass time_limit = None (or more seconds) to ltdsim.simulate"
+
+
+def check_time(scenario: Scenario, limit: float | None = TIME_LIMIT,
+               source: str | None = None, anyway: str = LIBRARY_ANYWAY) -> Estimate:
+    """Refuse, before anything is compiled or allocated, a run estimated
+    (:func:`estimate`) to take longer than ``limit`` seconds (None: no limit); returns
+    the estimate. Raises :class:`~ltdsim.errors.ScenarioError` naming the estimate, what
+    sets the step, the keys to change and, in ``anyway``, how to raise the limit."""
+    est = estimate(scenario)
+    if limit is None or est.seconds <= limit:
+        return est
+    sv = scenario.solver
+    keys = ("solver.dt, solver.t_end" if not sv.adaptive else
+            "solver.rtol, solver.atol, solver.max_step, solver.t_end")
+    raise ScenarioError(source or f"scenario {scenario.name!r}", [(
+        keys, f"the run would take about {duration(est.seconds)} ({est.line(False)}), beyond "
+              f"the limit of {duration(limit)}; raise the step, shorten solver.t_end, or "
+              f"{anyway} to run it anyway")])
+
+
 def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_ARRAYS)):
     """Records, state, controller, bs23 step state, step grid and the kernels' common
     argument tail (train, couplers, driver, work, outputs) for a run of ``low`` with
@@ -198,6 +310,13 @@ def zero_step_call(low: Lowered):
     return kernel.run, (y, ctl, 0, 0, grid, *common)
 
 
+#: wall time one kernel call of :func:`integrate` aims at, s (progress and Ctrl-C are
+#: seen between calls)
+CHUNK_SECONDS = 1.0
+#: the first kernel call covers at most this share of the records, 1 / FIRST_CHUNKS
+FIRST_CHUNKS = 1000
+
+
 def integrate(low: Lowered, scenario: Scenario, progress, chunks):
     """Run the kernel over the whole scenario."""
     n_rec_total = low.n_steps // low.record_every + 1
@@ -211,22 +330,29 @@ def integrate(low: Lowered, scenario: Scenario, progress, chunks):
     out_dt = low.record_every * low.dt
     t_end = low.n_steps * low.dt
     per_rec = max(1, (n_rec_total - 1) // max(chunks, 1))
+    # a call's records: at most per_rec; after each call scaled so that a call lasts
+    # about CHUNK_SECONDS (the first call is short: a run of unknown cost reports early)
+    size = max(1, min(per_rec, (n_rec_total - 1) // FIRST_CHUNKS))
     r = 0
     k = 0
     while True:
+        t_call = time.perf_counter()
         if low.adaptive:
-            r_stop = min(r + per_rec, n_rec_total)
+            r_stop = min(r + size, n_rec_total)
             status, t_at = kernel.run_adaptive(y, ctl, stepper, r, r_stop, grid, *common)
             r = r_stop
             done = r >= n_rec_total
             t_done = min(r, n_rec_total - 1) * out_dt
         else:
-            k_stop = min(k + per_rec * low.record_every, low.n_steps)
+            k_stop = min(k + size * low.record_every, low.n_steps)
             status, k_end = kernel.run(y, ctl, k, k_stop, grid, *common)
             t_at = k_end * low.dt
             k = k_stop
             done = k >= low.n_steps
             t_done = k * low.dt
+        spent = time.perf_counter() - t_call
+        grow = CHUNK_SECONDS / spent if spent > 0.0 else 4.0
+        size = max(1, min(per_rec, int(size * min(max(grow, 0.25), 4.0))))
         if status == kernel.EVENTS_FULL:
             raise SimulationError(
                 f"more than {MAX_EVENTS} brake commands by t = {t_at:.6g} s; raise "

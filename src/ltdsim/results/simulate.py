@@ -15,7 +15,8 @@ import xarray as xr
 from ltdsim.engine import kernel, preflight
 from ltdsim.engine.layout import E_MOTOR, ENERGY_TERMS, N_ENERGY
 from ltdsim.engine.lowering import Lowered, lower
-from ltdsim.engine.run import ProgressFn, check_memory, integrate, recorded, zero_step_call
+from ltdsim.engine.run import (TIME_LIMIT, ProgressFn, check_memory, check_time, integrate,
+                               recorded, zero_step_call)
 from ltdsim.scenario import Scenario
 from ltdsim.variables import DRIVE_SIGNALS, UNITS, VARIABLES
 
@@ -23,7 +24,7 @@ from ltdsim.variables import DRIVE_SIGNALS, UNITS, VARIABLES
 DESCRIPTIONS = {v.name: v.description for v in VARIABLES}
 
 def simulate(scenario: Scenario, progress: ProgressFn | None = None,
-             chunks: int = 100) -> xr.Dataset:
+             chunks: int = 100, time_limit: float | None = TIME_LIMIT) -> xr.Dataset:
     """Simulate ``scenario`` and return its time series.
 
     Parameters
@@ -34,7 +35,12 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         Called as ``progress(t_done, t_end)`` in seconds of simulated time after each
         chunk of steps.
     chunks : int
-        Number of kernel calls the run is split into (for progress and Ctrl-C).
+        Number of kernel calls the run is split into (for progress and Ctrl-C), at
+        least; a long run is split further so that each call lasts about
+        :data:`~ltdsim.engine.run.CHUNK_SECONDS`.
+    time_limit : float or None
+        A run estimated (:func:`~ltdsim.engine.run.estimate`) to take longer than this
+        (s of wall time) is refused before it starts; None: no limit.
 
     Returns
     -------
@@ -57,13 +63,15 @@ def simulate(scenario: Scenario, progress: ProgressFn | None = None,
         Before anything runs, if a fixed step is above the method's largest stable step
         for the train (:func:`ltdsim.engine.preflight.check`), or if the recording would
         take more than :data:`~ltdsim.engine.run.MEMORY_SHARE` of the memory available
-        (:func:`~ltdsim.engine.run.check_memory`).
+        (:func:`~ltdsim.engine.run.check_memory`), or if it would take longer than
+        ``time_limit`` (:func:`~ltdsim.engine.run.check_time`).
     SimulationError
         If the state becomes non-finite; the message names the time, the vehicle and
         coupler, and their values.
     """
     preflight.check(scenario)
     check_memory(scenario)
+    check_time(scenario, time_limit)
     low = lower(scenario)
     t0 = _time.perf_counter()
     kern, args = zero_step_call(low)
