@@ -225,4 +225,5 @@ def test_modal_runs_twice_into_the_same_folder(tmp_path):
     table = (out / "modes_draft.csv").read_text()
     assert cli_ok("modal", SHORT, "-o", out) == first
     assert (out / "modes_draft.csv").read_text() == table
-    assert sorted(p.name for p in out.iterdir()) == ["mode_shapes_draft.png", "modes_draft.csv"]
+    assert sorted(p.name for p in out.iterdir()) == ["ltdsim-analysis-files.json",
+                                                      "mode_shapes_draft.png", "modes_draft.csv"]

@@ -244,7 +244,7 @@ def modal(
                                                          "stiffness in (0, 1e12] N/m "
                                                          f"(got {stiffness})")])
         names = (f"modes_{stiffness}.csv", f"mode_shapes_{stiffness}.png")
-        check_output_files(output, names)
+        check_outputs(output, names, "modal")
         _, sc = result_or_scenario(file, case, run=False, overrides=set_)
         _needs_couplers(file, sc, "modal")
         table = train_modes(sc, which)
@@ -277,6 +277,7 @@ def modal(
         output.mkdir(parents=True, exist_ok=True)
         write_csv(shapes, output / names[0], index=True)
         save_mode_shapes(table, output / names[1], title=what, table_numbers=True)
+        record_outputs(output, [output / name for name in names])
     except OSError as exc:
         from rich.markup import escape
 

@@ -12,6 +12,7 @@ import typer
 from rich.markup import escape
 
 from ltdsim.errors import ScenarioError, SimulationError
+from ltdsim.results.outputs import check_own_folder, replace_own_files
 from ltdsim.cli.common import (
     COUPLER_COL, MAX_TIME_ANYWAY, RESULT_SUFFIXES, SET_HELP, MaxTimeOpt, check_folder,
     check_number, check_output, console, err_console, fail, image_suffixes, parse_set,
@@ -149,71 +150,21 @@ REPORT_FILES = ("index.html", "couplers.csv", "curving.png", "curving_worst.csv"
 
 def check_report_folder(folder: Path, outputs: dict) -> list[dict]:
     """Refuse, before the run, a ``--report`` folder holding anything but an earlier
-    report of ``ltdsim run`` (the files its record lists, unchanged since: the same size
-    and content) and this command's other ``outputs`` (option: path): a page or table of
-    someone else's is never written over, and no earlier run's figure is left beside
-    the new page. Refuses too an output of this command where the report writes. Returns
-    the records of the earlier report's files (replaced or removed once the new one is
-    written)."""
-    from ltdsim.results.io import file_problem, read_sealed, same_file
-
-    for option, path in outputs.items():
-        for name in (*REPORT_FILES, REPORT_RECORD):
-            if path is not None and same_file(path, folder / name):
-                raise ScenarioError(option, [("", f"{path} is where --report writes its "
-                                                  f"{name}; choose another path")])
-    if not folder.is_dir():
-        return []
-    own = []
-    try:
-        rec = read_sealed(folder / REPORT_RECORD)
-    except (FileNotFoundError, ValueError):  # (a damaged record: nothing is known as ours)
-        rec = None
-    files = rec.get("files") if isinstance(rec, dict) else None
-    if isinstance(files, list):
-        own = [f for f in files if isinstance(f, dict) and isinstance(f.get("path"), str)
-               and Path(f["path"]).name == f["path"] and file_problem(f, folder) is None]
-    known = {f["path"] for f in own} | ({REPORT_RECORD} if isinstance(files, list) else set())
-    keep = {Path(path).name for path in outputs.values()
-            if path is not None and same_file(Path(path).parent, folder)}
-    foreign = sorted(e.name for e in folder.iterdir() if e.name not in known | keep)
-    if foreign:
-        shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3
-                                          else "")
-        raise ScenarioError("--report", [("", f"{folder} holds what ltdsim run --report did "
-                                              f"not write ({shown}); give an empty or new "
-                                              "folder, or one holding only an earlier run's "
-                                              "report")])
-    return own
+    report of ``ltdsim run`` and this command's other ``outputs`` (option: path), or an
+    output where the report writes (:func:`ltdsim.results.outputs.check_own_folder`).
+    Returns the records of the earlier report's files."""
+    return check_own_folder(folder, REPORT_RECORD, REPORT_FILES, outputs,
+                            "ltdsim run --report", "--report")
 
 
 def write_report(ds, folder: Path, title: str, earlier: list[dict]) -> Path:
     """Write the run's report into ``folder`` (checked by :func:`check_report_folder`),
-    remove the files of the earlier report there that the new one did not write again
-    (an earlier run's curving figure, say, if still as that report wrote it), and record
-    the files written. Returns the page's path."""
-    import os
-
-    from ltdsim.results.io import atomic_path, file_problem, file_record, sealed_json
+    remove the earlier report's files the new one did not write again, and record the
+    files written. Returns the page's path."""
     from ltdsim.study.report import write_run_report
 
-    def seen() -> dict:
-        if not folder.is_dir():
-            return {}
-        return {e.name: (s.st_ino, s.st_mtime_ns) for e in folder.iterdir()
-                for s in (e.stat(),)}
-
-    before = seen()
-    page = write_run_report(ds, folder, title)
-    written = sorted(name for name, st in seen().items()
-                     if before.get(name) != st and name != REPORT_RECORD)
-    for rec in earlier:
-        if rec["path"] not in written and file_problem(rec, folder) is None:
-            os.unlink(folder / rec["path"])
-    with atomic_path(folder / REPORT_RECORD) as tmp:
-        tmp.write_text(sealed_json({"written_by": "ltdsim run --report",
-                                    "files": [file_record(folder / n, folder) for n in written]}))
-    return page
+    return replace_own_files(folder, REPORT_RECORD, lambda: write_run_report(ds, folder, title),
+                             earlier, "ltdsim run --report")
 
 
 def _speed(v: float, digits: int = 1) -> str:
