@@ -41,6 +41,13 @@ def figure_names(folder: Path, case_ids) -> list[str]:
                   if name.endswith(f"_{fig}") and name[:-len(fig) - 1] in ids)
 
 
+def _shown(value) -> str:
+    """A swept value in the printed table: a number to 6 significant figures."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return "" if value is None else str(value)
+    return f"{value:.6g}"
+
+
 def sweep(
     file: Annotated[Path, typer.Argument(help="scenario file (its named cases) or sweep file")],
     output: Annotated[Path, typer.Option("--output", "-o", help="output folder")] = Path(
@@ -114,16 +121,19 @@ def sweep(
              output / "phase_norms.csv")
         written.append(output / "phase_norms.csv")
     record_outputs(output, written)
+    swept = [sw.swept_column(k) for k in spec.swept]
     table = plain_table(f"Sweep {file} ({len(spec.cases)} cases)",
-                   ("case", "status", "RMS speed error [m/s]", "max tension [kN]",
+                   ("case", *swept, "status", "RMS speed error [m/s]", "max tension [kN]",
                     "max compression [kN]", "max |a| [m/s^2]"))
     for case, row in summary.iterrows():
+        values = [_shown(row[c]) for c in swept]
         if row.status == "ok":
-            table.add_row(case, "ok", f"{row.rms_speed_error_m_s:.4f}",
+            table.add_row(case, *values, "ok", f"{row.rms_speed_error_m_s:.4f}",
                           f"{row.max_tension_N / 1e3:.0f}", f"{row.max_compression_N / 1e3:.0f}",
                           f"{row.max_abs_acceleration_m_s2:.2f}")
         else:
-            table.add_row(case, str(row.status), str(row.get("error") or "")[:60], "", "", "")
+            table.add_row(case, *values, str(row.status), str(row.get("error") or "")[:60],
+                          "", "", "")
     console.print(table)
     best = sw.best_case(summary, best_by)
     if best is None and (summary.status == "ok").any():
