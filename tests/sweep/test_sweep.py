@@ -236,3 +236,25 @@ def test_a_swept_key_without_a_unit_says_so_and_none_is_invented(tmp_path):
     assert table["solver.method [no unit]"].tolist() == ["rk4", "heun"]
     assert table["solver.t_end [s]"].tolist() == [1.0, 1.0]
     assert sw.swept_column("solver.not_a_key") == "solver.not_a_key [unit not known]"
+
+
+# ------------------------------------------ couplers numbered from 1 where reported
+def test_phase_spectra_and_the_sweep_record_number_couplers_from_1():
+    from ltdsim.analysis.spectra import phase_spectra
+
+    sc = ltdsim.load_scenario(ROOT / "scenarios" / "short-train.toml").with_overrides(
+        {"solver.t_end": 4.0})
+    ds = ltdsim.simulate(sc)
+    nc = ds.sizes["coupler"]
+    table = phase_spectra(ds, sc, (0, nc - 1))
+    assert table.coupler_number.tolist() == [1, nc]  # behind the lead, and the last
+    rec = sw.run_case(sc.to_dict(), "c", extras=("spectra",))
+    spectra = pd.DataFrame(rec["spectra"])
+    assert "coupler" not in spectra  # (the library's 0-based index stays out of the file)
+    assert sorted(spectra.coupler_number) == [1, nc - 1, nc]
+    for number in (1, nc):
+        # each entry is that coupler's spectrum: coupler k is index k - 1
+        alone = phase_spectra(ds, sc, (number - 1,))
+        row = spectra[spectra.coupler_number == number].iloc[0]
+        assert_allclose(row.max_N, alone.max_N.item(), rtol=1e-12)
+        assert_allclose(row.band_rms_N, alone.band_rms_N.item(), rtol=1e-12)

@@ -353,7 +353,7 @@ def spectrum(
         fail(exc)
         return
     table = phase_spectra(ds, sc, tuple(which), f_max=SPECTRUM_BAND_HZ)
-    table["coupler"] = table["coupler"] + 1
+    table = table.drop(columns="coupler").rename(columns={"coupler_number": "coupler"})
     files = []
 
     def write():

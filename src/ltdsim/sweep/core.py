@@ -401,7 +401,9 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
     """Simulate one case (in a worker) and return its record; failures are recorded,
     not raised. ``extras`` adds analyses of the time series to the record:
     ``"sysid"`` (identification locomotive force -> first wagon acceleration at 10 ms,
-    with its step metrics) and ``"spectra"`` (phase spectra of couplers 0, n-2, n-1)."""
+    with its step metrics) and ``"spectra"`` (phase spectra of the first and the last
+    two couplers, each numbered as people count in ``coupler_number``: 1 = behind the
+    lead)."""
     from ltdsim.analysis.phases import phase_norms
     from ltdsim.results.simulate import simulate
 
@@ -423,7 +425,8 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
 
             nc = ds.sizes["coupler"]
             couplers = sorted({0, max(nc - 2, 0), nc - 1})
-            record["spectra"] = phase_spectra(ds, sc, couplers).to_dict(orient="records")
+            record["spectra"] = phase_spectra(ds, sc, couplers).drop(
+                columns="coupler").to_dict(orient="records")  # (the 0-based index)
         if keep_result:
             record["result"] = ds
     except LtdsimError as exc:
