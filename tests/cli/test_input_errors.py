@@ -354,30 +354,74 @@ def test_an_unreachable_scheduler_is_refused_within_seconds(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-def test_a_listener_that_is_not_a_dask_scheduler_is_refused(tmp_path):
+def _listener(answer):
+    """A TCP listener on 127.0.0.1 that treats each connection with ``answer(conn)``;
+    returns (socket, port)."""
     import socket
     import threading
 
     srv = socket.socket()
     srv.bind(("127.0.0.1", 0))
-    srv.listen(4)
+    srv.listen(8)
+    held = []
 
-    def talk():  # answer every connection with bytes no Dask client can read
+    def serve():
         while True:
             try:
                 conn, _ = srv.accept()
             except OSError:
                 return
-            with conn:
-                conn.sendall(b"HTTP/1.1 200 OK\r\n\r\n" + bytes(range(256)) * 8)
+            held.append(conn)
+            answer(conn)
 
-    threading.Thread(target=talk, daemon=True).start()
+    threading.Thread(target=serve, daemon=True).start()
+    return srv, srv.getsockname()[1]
+
+
+@pytest.mark.parametrize("answer, why", [
+    # bytes no Dask client can read (an HTTP server, say)
+    (lambda c: c.sendall(b"HTTP/1.1 200 OK\r\n\r\n" + bytes(range(256)) * 8),
+     ("does not speak Dask's protocol",)),
+    # hangs up at once (a Dask client retries the connection until its time is up)
+    (lambda c: c.close(), ("does not speak Dask's protocol", "no Dask answer within 3 s")),
+    # accepts and says nothing: a Dask client's handshake would wait for ever
+    (lambda c: None, ("no Dask answer within 3 s",)),
+], ids=["garbage", "hangs-up", "silent"])
+def test_a_listener_that_is_not_a_dask_scheduler_is_refused_within_seconds(tmp_path, answer,
+                                                                           why):
+    import time
+
+    srv, port = _listener(answer)
+    t0 = time.perf_counter()
     try:
-        msg = cli_refused("sweep", PAPER_TOML, "--scheduler",
-                      f"tcp://127.0.0.1:{srv.getsockname()[1]}", "-o", tmp_path / "out")
+        res = CliRunner().invoke(app, ["sweep", str(PAPER_TOML), "--scheduler",
+                                       f"tcp://127.0.0.1:{port}", "-o", str(tmp_path / "out")])
     finally:
         srv.close()
-    assert "--scheduler" in msg and "no Dask scheduler answers" in msg
+    elapsed = time.perf_counter() - t0
+    assert res.exit_code == 2, res.output
+    assert "Traceback" not in res.output + res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+    line = " ".join(res.stderr.split())
+    assert line.startswith("error (invalid input): --scheduler: "), line
+    assert f"tcp://127.0.0.1:{port} is not a Dask scheduler" in line, line
+    assert any(w in line for w in why), line
+    assert elapsed < 20.0  # loading the 16 cases, then at most a 3 s exchange
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_dask_scheduler_is_accepted_and_a_dask_worker_is_not():
+    distributed = pytest.importorskip("distributed")
+    from ltdsim.cli.common import check_scheduler
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  protocol="tcp", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        check_scheduler(cluster.scheduler_address)  # no refusal
+        worker = next(iter(cluster.scheduler_info["workers"]))
+        with pytest.raises(ScenarioError) as info:
+            check_scheduler(worker)
+    assert f"{worker} is not a Dask scheduler (it is a Dask Worker)" in str(info.value)
 
 
 @pytest.mark.parametrize("param, key, words", [

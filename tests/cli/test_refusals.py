@@ -142,6 +142,73 @@ def test_sweep_refuses_a_folder_where_it_writes_a_table_before_any_case(tmp_path
     assert not (out / "cases").exists()
 
 
+TWO_WAGONS = ROOT / "scenarios" / "two-wagons-linear.toml"
+
+
+def two_case_sweep(tmp_path):
+    spec = tmp_path / "sw.toml"
+    spec.write_text(f'scenario = "{TWO_WAGONS}"\n[overrides]\n"solver.t_end" = 2.0\n'
+                    '[list]\n"couplers.default.stiffness" = [2e6, 8e6]\n')
+    return spec
+
+
+@pytest.mark.parametrize("name", ["summary.csv", "phase_norms.csv",
+                                  "figures/l0001_fig6_forces.png"])
+def test_sweep_refuses_someone_elses_file_where_it_writes_before_any_case(tmp_path,
+                                                                         monkeypatch, name):
+    from ltdsim.sweep import core as sw
+
+    monkeypatch.setattr(sw, "run_sweep", refuse_work)
+    out = tmp_path / "out"
+    theirs = out / name
+    theirs.parent.mkdir(parents=True)
+    theirs.write_text("someone's notes")
+    msg = cli_refused("sweep", two_case_sweep(tmp_path), "-o", out, "--workers", "1")
+    assert f"error (invalid input): --output: {theirs} exists and is not a file an earlier " \
+           "ltdsim sweep wrote there (or it changed since); ltdsim sweep does not write " \
+           "over it" in msg, msg
+    assert theirs.read_text() == "someone's notes"
+    assert not (out / "cases").exists()
+
+
+def test_sweep_leaves_other_files_in_its_figures_folder_alone(tmp_path, monkeypatch):
+    from ltdsim.sweep import core as sw
+
+    monkeypatch.setattr(sw, "run_sweep", lambda *a, **k: (_ for _ in ()).throw(Started()))
+    figures = tmp_path / "out" / "figures"
+    figures.mkdir(parents=True)
+    for name in ("notes.txt", "l9999_fig6_forces.png", "fig6_forces.png"):  # not a case's
+        (figures / name).write_text("someone's")
+    res = RUNNER.invoke(app, ["sweep", str(two_case_sweep(tmp_path)), "-o",
+                              str(tmp_path / "out"), "--workers", "1"])
+    assert isinstance(res.exception, Started), res.stdout + res.stderr
+
+
+def test_sweep_runs_again_and_resumes_into_its_folder_but_not_over_an_edited_table(tmp_path):
+    spec, out = two_case_sweep(tmp_path), tmp_path / "out"
+    args = ("sweep", spec, "-o", out, "--workers", "1", "--best-by", "max_tension")
+    cli_ok(*args)
+    best = [p.name for p in (out / "figures").iterdir() if p.suffix == ".png"]
+    assert len(best) == 3, best
+    first = (out / "summary.csv").read_text()
+    done = (out / "cases" / "l0000.json").stat().st_mtime_ns
+    cli_ok(*args)  # everything finished: its own tables and figures are written again
+    assert (out / "summary.csv").read_text() == first
+    assert (out / "cases" / "l0000.json").stat().st_mtime_ns == done  # not run again
+    # an interrupted sweep (a case not finished, no tables yet) resumes with the rest
+    (out / "cases" / "l0001.json").unlink()
+    (out / "summary.csv").unlink()
+    cli_ok(*args)
+    assert (out / "summary.csv").read_text() == first
+    assert (out / "cases" / "l0000.json").stat().st_mtime_ns == done
+    # a table edited since is someone's: refused before any case, and kept
+    (out / "summary.csv").write_text("edited by hand\n")
+    msg = cli_refused(*args)
+    assert f"--output: {out / 'summary.csv'} exists and is not a file an earlier ltdsim " \
+           "sweep wrote there" in msg, msg
+    assert (out / "summary.csv").read_text() == "edited by hand\n"
+
+
 # -- 4: gear --help names its three commands
 def test_gear_help_names_loop_impact_and_ratings():
     text = " ".join(cli_ok("gear", "--help").split("Options")[0].split())

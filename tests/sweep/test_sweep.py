@@ -170,3 +170,91 @@ def test_amplitude_spectrum_reads_back_known_sines_and_parseval():
     s = band_stats(f, a, 10.0)
     assert s["f_at_max_hz"] == pytest.approx(0.7) and s["max"] == pytest.approx(3.0)
     assert_allclose(s["rms"], np.std(x), rtol=1e-9)  # all content is inside the band
+
+
+# ------------------------------------------------ the swept values in the summary
+def test_the_summary_csv_has_a_column_of_each_swept_value_with_its_unit(tmp_path,
+                                                                       monkeypatch):
+    from typer.testing import CliRunner
+
+    from ltdsim.cli.app import app
+    from ltdsim.cli.common import console
+
+    monkeypatch.setattr(console, "_width", 250)  # the printed table unabridged
+
+    p = tmp_path / "sw.toml"
+    p.write_text(f'scenario = "{ROOT / "scenarios" / "two-wagons-linear.toml"}"\n'
+                 '[overrides]\n"solver.t_end" = 1.0\n'
+                 '[list]\n"couplers.default.stiffness" = [2e6, 8e6]\n'
+                 '"vehicles.1.mass" = [5e4, 7e4]\n"couplers.default.damping" = [1e5, 2e5]\n')
+    res = CliRunner().invoke(app, ["sweep", str(p), "-o", str(tmp_path / "out"), "--workers",
+                                   "1", "--no-figures", "--best-by", "max_tension"])
+    assert res.exit_code == 0, res.output + res.stderr
+    table = pd.read_csv(tmp_path / "out" / "summary.csv")
+    swept = ["couplers.default.stiffness [N/m]", "vehicles.1.mass [kg]",
+             "couplers.default.damping [N s/m]"]
+    assert list(table.columns[:4]) == ["case", *swept]
+    assert table[swept].values.tolist() == [[2e6, 5e4, 1e5], [8e6, 7e4, 2e5]]
+    assert not any(c.startswith("solver.t_end") for c in table.columns)  # common, not swept
+    printed = " ".join(res.stdout.split())
+    assert "vehicles.1.mass [kg]" in printed and "70000" in printed, res.stdout  # printed too
+
+
+def test_grid_monte_carlo_and_named_cases_give_their_values_in_case_order(tmp_path):
+    import tomllib
+
+    empty = tmp_path / "not-run"
+    grid = sw.summary_table(empty, sw.load_sweep(write_sweep(tmp_path, GRID)))
+    assert grid[["couplers.default.k3 [N/m]", "couplers.default.damping [N s/m]"]
+                ].values.tolist() == [[3e6, 1e3], [3e6, 3e3], [6e6, 1e3], [6e6, 3e3]]
+    assert (grid.status == "not run").all()
+    mc = sw.load_sweep(write_sweep(tmp_path, '''
+[monte_carlo]
+samples = 5
+seed = 3
+[monte_carlo.parameters]
+"vehicles.2.mass" = { dist = "uniform", low = 8e4, high = 9e4 }
+'''))
+    masses = sw.summary_table(empty, mc)["vehicles.2.mass [kg]"]
+    expected = np.random.default_rng(3).uniform(8e4, 9e4, size=5)
+    assert_allclose(masses.values, expected, rtol=0)
+    # a scenario file's named cases: every key they set, as the file gives it
+    named = sw.summary_table(empty, sw.load_sweep(ROOT / "scenarios" / "paper.toml"))
+    cases = tomllib.loads((ROOT / "scenarios" / "paper.toml").read_text())["cases"]
+    assert list(named.index) == list(cases)
+    for case, keys in cases.items():
+        for key, value in keys.items():
+            column = next(c for c in named.columns if c.startswith(f"{key} ["))
+            assert named.loc[case, column] == value, (case, key)
+    assert {"driver.pid.kp [1/s]", "driver.pid.kd [-]"} <= set(named.columns)
+
+
+def test_a_swept_key_without_a_unit_says_so_and_none_is_invented(tmp_path):
+    s = sw.load_sweep(write_sweep(tmp_path, '[grid]\n"solver.method" = ["rk4", "heun"]\n'
+                                            '"solver.t_end" = [1.0]\n'))
+    table = sw.summary_table(tmp_path / "not-run", s)
+    assert table["solver.method [no unit]"].tolist() == ["rk4", "heun"]
+    assert table["solver.t_end [s]"].tolist() == [1.0, 1.0]
+    assert sw.swept_column("solver.not_a_key") == "solver.not_a_key [unit not known]"
+
+
+# ------------------------------------------ couplers numbered from 1 where reported
+def test_phase_spectra_and_the_sweep_record_number_couplers_from_1():
+    from ltdsim.analysis.spectra import phase_spectra
+
+    sc = ltdsim.load_scenario(ROOT / "scenarios" / "short-train.toml").with_overrides(
+        {"solver.t_end": 4.0})
+    ds = ltdsim.simulate(sc)
+    nc = ds.sizes["coupler"]
+    table = phase_spectra(ds, sc, (0, nc - 1))
+    assert table.coupler_number.tolist() == [1, nc]  # behind the lead, and the last
+    rec = sw.run_case(sc.to_dict(), "c", extras=("spectra",))
+    spectra = pd.DataFrame(rec["spectra"])
+    assert "coupler" not in spectra  # (the library's 0-based index stays out of the file)
+    assert sorted(spectra.coupler_number) == [1, nc - 1, nc]
+    for number in (1, nc):
+        # each entry is that coupler's spectrum: coupler k is index k - 1
+        alone = phase_spectra(ds, sc, (number - 1,))
+        row = spectra[spectra.coupler_number == number].iloc[0]
+        assert_allclose(row.max_N, alone.max_N.item(), rtol=1e-12)
+        assert_allclose(row.band_rms_N, alone.band_rms_N.item(), rtol=1e-12)

@@ -130,7 +130,9 @@ def spectrogram(x, dt: float, segment_s: float = 10.0, overlap: float = 0.75,
 def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
                   lead: str = "held", detrend="linear"):
     """Per phase and coupler (``couplers``: indices from 0; coupler 1 as people count,
-    behind the lead, is index 0): largest amplitude (N) and its frequency (Hz), band RMS (N)
+    behind the lead, is index 0; the table has both, ``coupler`` the index and
+    ``coupler_number`` the number people read, 1 = behind the lead, for what is shown
+    or written): largest amplitude (N) and its frequency (Hz), band RMS (N)
     up to ``f_max``, the spectrum's resolution (Hz), the coupling branches engaged
     (:func:`engaged_branches`), and the main peaks matched to the train's modes on those
     branches (the study's Tables 6 and 7), each force's trend removed first
@@ -163,7 +165,8 @@ def phase_spectra(ds, scenario=None, couplers=(0, 7, 8), f_max: float = 10.0,
                                        scenario.coupler(c).slack)
             peaks = spectral_peaks(f, amp, {k: modes[k] for k in engaged if k in modes},
                                    f_max)
-            rows.append({"phase": name, "coupler": c, "max_N": s["max"],
+            rows.append({"phase": name, "coupler": c, "coupler_number": c + 1,
+                         "max_N": s["max"],
                          "f_at_max_hz": s["f_at_max_hz"], "band_rms_N": s["rms"],
                          "spectrum_rms_N": s["spectrum_rms"],
                          "resolution_hz": float(f[1]) if f.size > 1 else float("nan"),

@@ -13,7 +13,7 @@ import typer
 from ltdsim.errors import ScenarioError, SimulationError
 from ltdsim.cli.common import (
     COUPLER_COL, CaseOpt, QuietOpt, SetOpt, VEHICLE_COL, check_folder, check_number,
-    check_output_files, console, err_console, fail, plain_table, result_or_scenario, say,
+    console, err_console, fail, plain_table, result_or_scenario, say,
     simulate_shown, write_csv,
 )
 from ltdsim.results.outputs import check_outputs, record_outputs
@@ -354,7 +354,7 @@ def spectrum(
         fail(exc)
         return
     table = phase_spectra(ds, sc, tuple(which), f_max=SPECTRUM_BAND_HZ)
-    table["coupler"] = table["coupler"] + 1
+    table = table.drop(columns="coupler").rename(columns={"coupler_number": "coupler"})
     files = []
 
     def write():

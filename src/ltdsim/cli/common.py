@@ -207,17 +207,47 @@ def check_scheduler(address: Optional[str], timeout: float = 3.0) -> None:
                                                   f"{address} ({why} within {timeout:g} s); "
                                                   "start it or check the address")]) from None
     # something listens there: is it a Dask scheduler? (a proxy or another service
-    # answers with bytes a Dask client cannot read)
-    from distributed import Client
+    # answers with bytes a Dask client cannot read, or nothing at all: a Dask client's
+    # own handshake waits for an answer without end, so the whole exchange is bounded
+    # here)
+    kind = _dask_identity(address, timeout)
+    if kind != "Scheduler":
+        why = (f"it gives no Dask answer within {timeout:g} s" if kind is TimeoutError
+               else "what answers there does not speak Dask's protocol" if kind is None
+               else f"it is a Dask {kind}")
+        raise ScenarioError("--scheduler", [("", f"{address} is not a Dask scheduler "
+                                                  f"({why}); give the scheduler's address, "
+                                                  "tcp://HOST:PORT (e.g. "
+                                                  "tcp://10.0.0.5:8786)")])
+
+
+def _dask_identity(address: str, timeout: float):
+    """The ``type`` a Dask server at ``address`` gives for itself ("Scheduler",
+    "Worker", "Nanny"); None when what answers there does not speak Dask's protocol,
+    TimeoutError when it gives no answer within ``timeout`` seconds (all of it: connect,
+    handshake, reply)."""
+    import asyncio
+
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    async def ask():
+        comm = await connect(address, timeout=timeout,
+                             **Security().get_connection_args("client"))
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
 
     try:
-        Client(address, timeout=timeout).close()
-    except Exception as exc:  # noqa: BLE001 - whatever the far end sent
-        why = (" ".join(str(exc).split())[:100] if isinstance(exc, (OSError, TimeoutError))
-               else "what answers there does not speak Dask's protocol")
-        raise ScenarioError("--scheduler", [("", f"no Dask scheduler answers at {address} "
-                                                  f"({why}); start it or check the "
-                                                  "address")]) from None
+        reply = asyncio.run(asyncio.wait_for(ask(), timeout))
+    except TimeoutError:
+        return TimeoutError
+    except Exception:  # noqa: BLE001 - whatever the far end sent, or its silence
+        return None
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    return kind if isinstance(kind, str) else None
 
 
 #: result files ``-o/--output`` writes (netCDF-4, readable by MATLAB, Python, Julia, R)

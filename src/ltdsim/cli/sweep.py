@@ -4,6 +4,7 @@ summary table and the best case's phase figures.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -12,10 +13,39 @@ from rich.markup import escape
 
 from ltdsim.errors import LtdsimError, ScenarioError
 from ltdsim.progress import Display
+from ltdsim.cli.analyse import PHASES_FILES
 from ltdsim.cli.common import (
-    case_counter, check_folder, check_output_files, check_scheduler, check_workers, console, err_console,
+    case_counter, check_folder, check_scheduler, check_workers, console, err_console,
     fail, parse_set, plain_table, say, simulate_shown, write_csv,
 )
+from ltdsim.results.outputs import check_outputs, record_outputs
+
+#: the tables a sweep writes in its folder once every case has run
+SWEEP_FILES = ("summary.csv", "phase_norms.csv")
+#: the phase figures of the best case, ``<case id>_<name>`` in ``figures/``
+PHASE_FIGURES = tuple(n for n in PHASES_FILES if n.endswith(".png"))
+
+
+def figure_names(folder: Path, case_ids) -> list[str]:
+    """The names in ``folder`` that a sweep of the cases ``case_ids`` may write there (the
+    phase figures of whichever case turns out best): the names to check before the
+    sweep, found by listing the folder once rather than by looking up every case's."""
+    try:
+        present = [e.name for e in os.scandir(folder)]
+    except (FileNotFoundError, NotADirectoryError):
+        return []
+    if not present:
+        return []
+    ids = set(case_ids)
+    return sorted(name for name in present for fig in PHASE_FIGURES
+                  if name.endswith(f"_{fig}") and name[:-len(fig) - 1] in ids)
+
+
+def _shown(value) -> str:
+    """A swept value in the printed table: a number to 6 significant figures."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return "" if value is None else str(value)
+    return f"{value:.6g}"
 
 
 def sweep(
@@ -47,13 +77,19 @@ def sweep(
         check_workers(workers)
         for folder in (output, output / "cases") + ((output / "figures",) if figures else ()):
             check_folder(folder)
-        # the tables written once every case has run
-        check_output_files(output, ("summary.csv", "phase_norms.csv"))
+        # the tables written once every case has run: a folder or someone else's file
+        # there is refused now, not after the cases (an earlier sweep's own tables, as
+        # recorded, are written again: a sweep resumes into its folder)
+        check_outputs(output, SWEEP_FILES, "sweep")
         with Display(err_console) as show:
             checking = case_counter(show, "checking the cases")
             spec = sw.load_sweep(file, progress=checking)
             if set_:
                 spec = sw.with_overrides(spec, parse_set(set_), progress=checking)
+        if figures:  # (which case's figures is known only at the end: any case's)
+            check_outputs(output / "figures",
+                          figure_names(output / "figures", (c.id for c in spec.cases)),
+                          "sweep")
         check_scheduler(scheduler)
         if not scheduler:  # (a cluster's workers check their own memory)
             sw.check_sweep_memory(spec, str(file), workers)
@@ -78,20 +114,26 @@ def sweep(
                               "command again to resume[/]")
             raise typer.Exit(130) from None
     write_csv(summary, output / "summary.csv", index=True)
+    written = [output / "summary.csv"]
     norms = sw.phase_norm_table(output, spec)
     if not norms.empty:
         write_csv(norms.rename(columns={"number": "coupler or vehicle (1 = lead end)"}),
              output / "phase_norms.csv")
+        written.append(output / "phase_norms.csv")
+    record_outputs(output, written)
+    swept = [sw.swept_column(k) for k in spec.swept]
     table = plain_table(f"Sweep {file} ({len(spec.cases)} cases)",
-                   ("case", "status", "RMS speed error [m/s]", "max tension [kN]",
+                   ("case", *swept, "status", "RMS speed error [m/s]", "max tension [kN]",
                     "max compression [kN]", "max |a| [m/s^2]"))
     for case, row in summary.iterrows():
+        values = [_shown(row[c]) for c in swept]
         if row.status == "ok":
-            table.add_row(case, "ok", f"{row.rms_speed_error_m_s:.4f}",
+            table.add_row(case, *values, "ok", f"{row.rms_speed_error_m_s:.4f}",
                           f"{row.max_tension_N / 1e3:.0f}", f"{row.max_compression_N / 1e3:.0f}",
                           f"{row.max_abs_acceleration_m_s2:.2f}")
         else:
-            table.add_row(case, str(row.status), str(row.get("error") or "")[:60], "", "", "")
+            table.add_row(case, *values, str(row.status), str(row.get("error") or "")[:60],
+                          "", "", "")
     console.print(table)
     best = sw.best_case(summary, best_by)
     if best is None and (summary.status == "ok").any():
@@ -104,6 +146,7 @@ def sweep(
 
             sc = spec.scenario(next(c for c in spec.cases if c.id == best))
             files = phase_figures(simulate_shown(sc), output / "figures", sc, prefix=f"{best}_")
+            record_outputs(output / "figures", files)
             say(f"phase figures of {best} in {output / 'figures'} ({len(files)})")
     failed = summary[summary.status != "ok"]
     if len(failed):

@@ -11,8 +11,8 @@ from ltdsim.errors import ScenarioError
 # (ltdsim.results.io, which imports xarray, is imported where it is used: the command
 # line reads this module at start-up)
 
-#: the record the analysis commands (phases, spectrum, sysid) leave in their output
-#: folder: the files they wrote there, each with its size and content hash
+#: the record the analysis commands (phases, spectrum, sysid) and sweeps leave in their
+#: output folder: the files they wrote there, each with its size and content hash
 WRITTEN = "ltdsim-analysis-files.json"
 
 
@@ -84,7 +84,8 @@ def record_outputs(folder: Path, paths) -> None:
     for path in paths:
         own[Path(path).name] = file_record(path, folder)
     with atomic_path(folder / WRITTEN) as tmp:
-        tmp.write_text(sealed_json({"written_by": "ltdsim phases, spectrum, sysid, modal",
+        tmp.write_text(sealed_json({"written_by": "ltdsim phases, spectrum, sysid, modal, "
+                                                  "sweep",
                                     "files": [own[k] for k in sorted(own)]}))
 
 

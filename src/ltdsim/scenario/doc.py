@@ -41,6 +41,7 @@ that member's keys.
 from __future__ import annotations
 
 import argparse
+import functools
 import re
 import sys
 import types
@@ -469,6 +470,32 @@ def sections(root: type[BaseModel] | None = None) -> list[Section]:
 def missing_units(root: type[BaseModel] | None = None) -> list[str]:
     """The dotted paths of the fields that need a unit and have none in their description."""
     return [k.path for s in sections(root) for k in s.keys if k.needs_unit and k.unit is None]
+
+
+def key_unit(key: str) -> tuple[bool, str | None]:
+    """``(known, unit)`` of a dotted scenario key as ``--set`` and sweep files spell it
+    (``"couplers.default.k3"``, ``"vehicles.2.mass"``), from the schema's field
+    descriptions: ``(True, "N/m")``; ``(True, "-")`` for a dimensionless number;
+    ``(True, None)`` for a key that carries no unit (a flag, a choice, a name, a whole
+    number); ``(False, None)`` when the key is not a field of the schema or its unit is
+    not written there (nothing is guessed)."""
+    found = _key_table().get(re.sub(r"\.\d+(?=\.|$)", ".<i>", key))
+    if not found:
+        return False, None
+    if not any(k.needs_unit for k in found):
+        return True, None
+    units = {k.unit for k in found if k.needs_unit}
+    return (True, units.pop()) if len(units) == 1 and None not in units else (False, None)
+
+
+@functools.lru_cache(maxsize=1)
+def _key_table() -> dict[str, list[Key]]:
+    """Every documented key by its dotted path (one per model that has the key)."""
+    out: dict[str, list[Key]] = {}
+    for sec in sections():
+        for k in sec.keys:
+            out.setdefault(k.path, []).append(k)
+    return out
 
 
 # ---------------------------------------------------------------- the Markdown

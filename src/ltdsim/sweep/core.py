@@ -98,12 +98,16 @@ def _grid_cases(keys: list[str], values: list[list], common: dict) -> LazyCases:
 class Sweep:
     """A base scenario, its cases, and where the sweep file came from.
 
-    ``largest`` is ``(bytes, case id)`` of the case whose run needs the most memory
+    ``swept`` are the keys the cases vary (a grid's, a list's or the Monte-Carlo
+    parameters, or every key a scenario file's named cases set; not the overrides common
+    to every case), the summary's columns of the cases' values. ``largest`` is
+    ``(bytes, case id)`` of the case whose run needs the most memory
     (:func:`ltdsim.engine.run.recording_bytes`), found when the cases are validated."""
 
     base: Scenario
     cases: Sequence[Case]
     source: str
+    swept: tuple[str, ...] = ()
     largest: tuple[int, str] | None = None
     _built: OrderedDict = field(default_factory=OrderedDict, repr=False)
 
@@ -131,7 +135,7 @@ def with_overrides(sweep: Sweep, overrides: dict, source: str = "--set",
     before = sweep.cases
     cases = LazyCases(len(before), lambda i: Case(before[i].id,
                                                   {**before[i].overrides, **overrides}))
-    return _validated(Sweep(sweep.base, cases, sweep.source), progress)
+    return _validated(Sweep(sweep.base, cases, sweep.source, sweep.swept), progress)
 
 
 def fingerprint(scenario: Scenario, extras=()) -> str:
@@ -162,7 +166,8 @@ def load_sweep(path: str | Path, progress: Checked | None = None) -> Sweep:
             raise ScenarioError(source, [("cases", "the scenario has no [cases.*] to sweep; "
                                                    "give a sweep file instead")])
         cases = [Case(name, dict(ov)) for name, ov in base.cases.items()]
-        return _validated(Sweep(base, cases, source), progress)
+        swept = tuple(dict.fromkeys(k for c in cases for k in c.overrides))
+        return _validated(Sweep(base, cases, source, swept), progress)
 
     unknown = sorted(set(data) - SWEEP_KEYS)
     if unknown:
@@ -220,9 +225,10 @@ def load_sweep(path: str | Path, progress: Checked | None = None) -> Sweep:
         cases = [Case(f"l{i:04d}", {**common, **dict(zip(keys, c))})
                  for i, c in enumerate(zip(*values))]
     else:
-        cases = [Case(f"mc{i:04d}", {**common, **ov})
-                 for i, ov in enumerate(_monte_carlo(source, data["monte_carlo"]))]
-    return _validated(Sweep(base, cases, source), progress)
+        samples = _monte_carlo(source, data["monte_carlo"])
+        keys = list(samples[0])
+        cases = [Case(f"mc{i:04d}", {**common, **ov}) for i, ov in enumerate(samples)]
+    return _validated(Sweep(base, cases, source, tuple(keys)), progress)
 
 
 def _dotted(table: dict, prefix: str = "", leaf=lambda v: False) -> dict:
@@ -395,7 +401,9 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
     """Simulate one case (in a worker) and return its record; failures are recorded,
     not raised. ``extras`` adds analyses of the time series to the record:
     ``"sysid"`` (identification locomotive force -> first wagon acceleration at 10 ms,
-    with its step metrics) and ``"spectra"`` (phase spectra of couplers 0, n-2, n-1)."""
+    with its step metrics) and ``"spectra"`` (phase spectra of the first and the last
+    two couplers, each numbered as people count in ``coupler_number``: 1 = behind the
+    lead)."""
     from ltdsim.analysis.phases import phase_norms
     from ltdsim.results.simulate import simulate
 
@@ -417,7 +425,8 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
 
             nc = ds.sizes["coupler"]
             couplers = sorted({0, max(nc - 2, 0), nc - 1})
-            record["spectra"] = phase_spectra(ds, sc, couplers).to_dict(orient="records")
+            record["spectra"] = phase_spectra(ds, sc, couplers).drop(
+                columns="coupler").to_dict(orient="records")  # (the 0-based index)
         if keep_result:
             record["result"] = ds
     except LtdsimError as exc:
@@ -679,8 +688,53 @@ def _write_case(out: Path, case: Case, fp: str, record: dict) -> None:
         tmp.write_text(sealed_json(record))
 
 
+def swept_column(key: str) -> str:
+    """The summary's header of swept key ``key``: the key as the sweep file spells it
+    and its unit from the scenario schema (:func:`ltdsim.scenario.doc.key_unit`),
+    ``couplers.default.k3 [N/m]``; ``[-]`` dimensionless, ``[no unit]`` for a key that
+    takes none (a choice, a count), ``[unit not known]`` where the schema gives none."""
+    from ltdsim.scenario.doc import key_unit
+
+    known, unit = key_unit(key)
+    return f"{key} [{unit if unit else 'no unit' if known else 'unit not known'}]"
+
+
+def swept_values(sweep: Sweep, case: Case) -> dict:
+    """``{swept_column(key): value}`` of ``case`` for each swept key: the value its
+    overrides give (as the sweep file wrote it), or, for a key a named case does not
+    set, the value its scenario has. A value that is not a number or a text (an array)
+    is written as JSON."""
+    out = {}
+    data = None
+    for key in sweep.swept:
+        if key in case.overrides:
+            value = case.overrides[key]
+        else:
+            if data is None:
+                data = sweep.scenario(case).to_dict()
+            value = _dotted_get(data, key)
+        if not (value is None or isinstance(value, (bool, int, float, str))):
+            value = json.dumps(value)
+        out[swept_column(key)] = value
+    return out
+
+
+def _dotted_get(data, key: str):
+    """The value at dotted ``key`` of a scenario's dictionary, or None."""
+    node = data
+    for part in key.split("."):
+        if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        elif isinstance(node, dict) and part in node:
+            node = node[part]
+        else:
+            return None
+    return node
+
+
 def summary_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
-    """One row per case on disk: status, RMS speed error, the largest tension and
+    """One row per case on disk: the value of each swept key (:func:`swept_values`, a
+    column per key with its unit), status, RMS speed error, the largest tension and
     compression over all couplers (and per coupler, numbered as people count:
     ``max_tension_coupler1_N`` is coupler 1, behind the lead), the largest
     |acceleration|."""
@@ -688,11 +742,12 @@ def summary_table(out: str | Path, sweep: Sweep) -> pd.DataFrame:
     rows = []
     for case in sweep.cases:
         p = case_path(out, case.id)
+        values = swept_values(sweep, case)
         if not p.is_file():
-            rows.append({"case": case.id, "status": "not run"})
+            rows.append({"case": case.id, **values, "status": "not run"})
             continue
         rec = json.loads(p.read_text())
-        row = {"case": case.id, "status": rec["status"], "error": rec.get("error")}
+        row = {"case": case.id, **values, "status": rec["status"], "error": rec.get("error")}
         s = rec.get("summary")
         if s:
             row.update({
