@@ -123,3 +123,22 @@ def test_progress_in_a_log_gives_the_time_left_at_the_rate_so_far(monkeypatch):
     assert re.search(r"135/270 s simulated, 30 s, about 30 s left$", lines[1]), lines
     assert lines[2].endswith("270/270 s simulated, 90 s"), lines
     assert remaining(5400.0) == "1.5 h" and remaining(600.0) == "10 min"
+
+
+def test_a_sweep_with_a_case_beyond_the_limit_is_refused_before_any_case_runs(tmp_path):
+    """One case at a nanosecond step among ordinary ones: refused naming that case and
+    the option, nothing written; the estimates of the cases add up to the sweep's."""
+    from ltdsim.sweep import core as sw
+
+    path = tmp_path / "sweep.toml"
+    path.write_text(f'scenario = "{SCEN / "short-train.toml"}"\n'
+                    '[list]\n"solver.dt" = [1e-4, 1e-10]\n')
+    spec = sw.load_sweep(path)
+    each = [estimate(spec.scenario(c)).seconds for c in spec.cases]
+    assert spec.seconds == pytest.approx(sum(each), rel=1e-12)
+    assert spec.slowest[1] == spec.cases[1].id and each[1] == pytest.approx(1e6 * each[0])
+    out = tmp_path / "out"
+    text = cli_refused("sweep", path, "-o", out, "--workers", "1")
+    assert f"case {spec.cases[1].id}: solver.dt, solver.t_end: the case would take about" in text
+    assert "give --max-time SECONDS (0: no limit)" in text
+    assert not (out / "cases").exists() or not any((out / "cases").iterdir())

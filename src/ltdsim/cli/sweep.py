@@ -15,8 +15,8 @@ from ltdsim.errors import LtdsimError, ScenarioError
 from ltdsim.progress import Display
 from ltdsim.cli.analyse import PHASES_FILES
 from ltdsim.cli.common import (
-    case_counter, check_folder, check_scheduler, check_workers, console, err_console,
-    fail, parse_set, plain_table, say, simulate_shown, write_csv,
+    case_counter, check_folder, check_number, check_scheduler, check_workers, console,
+    err_console, fail, parse_set, plain_table, say, simulate_shown, write_csv,
 )
 from ltdsim.results.outputs import check_outputs, record_outputs
 
@@ -66,8 +66,12 @@ def sweep(
                        ] = "rms_speed_error",
     figures: Annotated[bool, typer.Option(help="phase figures (study Fig. 5-7) of the best "
                                                "case")] = True,
+    max_time: Annotated[Optional[float], typer.Option(
+        "--max-time", help="refuse a sweep with a case estimated to take longer than this, "
+                           "s of wall time (default 3600; 0: no limit)")] = None,
 ) -> None:
     """Run many cases; resumable (finished cases are kept), local or on Dask."""
+    from ltdsim.engine.run import ANNOUNCE_TIME, TIME_LIMIT, duration
     from ltdsim.sweep import core as sw
 
     if best_by not in sw.CRITERIA:
@@ -75,6 +79,8 @@ def sweep(
         return
     try:
         check_workers(workers)
+        if max_time is not None:
+            check_number("--max-time", max_time, lo=0.0, unit="s", reason="0 means no limit")
         for folder in (output, output / "cases") + ((output / "figures",) if figures else ()):
             check_folder(folder)
         # the tables written once every case has run: a folder or someone else's file
@@ -93,9 +99,21 @@ def sweep(
         check_scheduler(scheduler)
         if not scheduler:  # (a cluster's workers check their own memory)
             sw.check_sweep_memory(spec, str(file), workers)
+        sw.check_sweep_time(spec, str(file), TIME_LIMIT if max_time is None else
+                            (max_time or None), "give --max-time SECONDS (0: no limit)")
     except ScenarioError as exc:
         fail(exc)
         return
+    if spec.seconds > ANNOUNCE_TIME and spec.slowest is not None:
+        cores = max(1, min(workers if workers and workers > 0 else os.cpu_count() or 1,
+                           len(spec.cases)))
+        est, slow = spec.slowest
+        say_err = (f"estimate: {len(spec.cases):,} cases, about {duration(spec.seconds)} on "
+                   f"one core" + ("" if scheduler else
+                                  f" (about {duration(spec.seconds / cores)} on {cores} "
+                                  f"local processes)") +
+                   f"; the longest, case {slow}, about {duration(est.seconds)}")
+        err_console.print(escape(say_err), highlight=False, soft_wrap=True)
     with Display(err_console) as show:
         update = show.bar("sweep", len(spec.cases), "cases")
         try:
@@ -145,7 +163,8 @@ def sweep(
             from ltdsim.viz.analysis import phase_figures
 
             sc = spec.scenario(next(c for c in spec.cases if c.id == best))
-            files = phase_figures(simulate_shown(sc), output / "figures", sc, prefix=f"{best}_")
+            files = phase_figures(simulate_shown(sc, max_time=max_time), output / "figures", sc,
+                                  prefix=f"{best}_")
             record_outputs(output / "figures", files)
             say(f"phase figures of {best} in {output / 'figures'} ({len(files)})")
     failed = summary[summary.status != "ok"]

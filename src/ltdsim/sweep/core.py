@@ -102,13 +102,18 @@ class Sweep:
     parameters, or every key a scenario file's named cases set; not the overrides common
     to every case), the summary's columns of the cases' values. ``largest`` is
     ``(bytes, case id)`` of the case whose run needs the most memory
-    (:func:`ltdsim.engine.run.recording_bytes`), found when the cases are validated."""
+    (:func:`ltdsim.engine.run.recording_bytes`), found when the cases are validated;
+    ``slowest`` is ``(estimate, case id)`` of the case estimated to take longest and
+    ``seconds`` the estimated wall time of every case together on one core
+    (:func:`ltdsim.engine.run.estimate`)."""
 
     base: Scenario
     cases: Sequence[Case]
     source: str
     swept: tuple[str, ...] = ()
     largest: tuple[int, str] | None = None
+    slowest: tuple[object, str] | None = None
+    seconds: float = 0.0
     _built: OrderedDict = field(default_factory=OrderedDict, repr=False)
 
     def scenario(self, case: Case) -> Scenario:
@@ -318,11 +323,13 @@ def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
     :func:`ltdsim.engine.preflight.check`), with its most memory-hungry case in
     ``largest``."""
     from ltdsim.engine.preflight import check
-    from ltdsim.engine.run import recording_bytes
+    from ltdsim.engine.run import estimate
 
     problems = []
     bad = 0
     largest = None
+    slowest = None
+    seconds = 0.0
     total = len(sweep.cases)
     report = progress if progress is not None and total >= 1000 else None
     for k, case in enumerate(sweep.cases):
@@ -337,9 +344,12 @@ def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
                 problems += [(f"case {case.id}" + (f": {k}" if k else ""), m)
                              for k, m in exc.problems]
             continue
-        need = recording_bytes(sc)
-        if largest is None or need > largest[0]:
-            largest = (need, case.id)
+        est = estimate(sc)
+        seconds += est.seconds
+        if largest is None or est.bytes > largest[0]:
+            largest = (est.bytes, case.id)
+        if slowest is None or est.seconds > slowest[0].seconds:
+            slowest = (est, case.id)
     if problems:
         if bad > 20:
             problems.append(("", f"... and {bad - 20:,} more cases with problems"))
@@ -347,7 +357,27 @@ def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
     if report is not None:
         report(total, total)
     sweep.largest = largest
+    sweep.slowest = slowest
+    sweep.seconds = seconds
     return sweep
+
+
+def check_sweep_time(sweep: Sweep, source: str, limit: float | None, anyway: str) -> None:
+    """Refuse (ScenarioError), before any case runs, a sweep whose slowest case is
+    estimated to take longer than ``limit`` seconds (None: no limit;
+    :func:`ltdsim.engine.run.check_time`; ``anyway`` says how to raise it)."""
+    from ltdsim.engine.run import duration
+
+    if sweep.slowest is None or limit is None:
+        return
+    est, case_id = sweep.slowest
+    if est.seconds > limit:
+        raise ScenarioError(f"{source} case {case_id}", [(
+            "solver.dt, solver.t_end" if est.exact else
+            "solver.rtol, solver.atol, solver.max_step, solver.t_end",
+            f"the case would take about {duration(est.seconds)} ({est.line(False)}), "
+            f"beyond the limit of {duration(limit)} for one case; raise its step, shorten "
+            f"solver.t_end, or {anyway} to run it anyway")])
 
 
 def check_sweep_memory(sweep: Sweep, source: str, workers: int | None = None) -> None:
@@ -410,7 +440,7 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
     record = {"id": case_id, "status": "ok", "error": None}
     try:
         sc = Scenario.from_dict(scenario_dict, f"case {case_id}")
-        ds = simulate(sc)
+        ds = simulate(sc, time_limit=None)  # (the sweep's limit was checked before it ran)
         record["summary"] = case_summary(ds, sc)
         try:
             norms = phase_norms(ds, sc)
