@@ -322,3 +322,16 @@ def test_modal_reports_a_failed_eigensolver_in_plain_words(tmp_path, monkeypatch
     assert f"error (invalid input): {SHORT}: the modes could not be computed: scipy's " \
            "eigensolver failed" in msg, msg
     assert "--The" not in msg and "--stiffness:" not in msg
+
+
+# -- a run that would not record what the analysis reads
+@pytest.mark.parametrize("command, missing", [
+    ("sysid", "acceleration"), ("spectrum", "coupler_deflection"),
+    ("phases", "acceleration, speed_error, velocity, relative_position, relative_velocity")])
+def test_an_analysis_refuses_a_run_whose_record_leaves_out_what_it_reads(tmp_path, command,
+                                                                         missing):
+    out = tmp_path / "out"
+    msg = cli_refused(command, SHORT, "--set", 'solver.record=["coupler_force"]', "-o", out)
+    assert f"solver.record: ltdsim {command} reads {missing}, which the run would not " \
+           "record (solver.record: coupler_force)" in msg, msg
+    assert not out.exists()

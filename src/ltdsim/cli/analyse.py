@@ -78,6 +78,28 @@ def _window_key(sc) -> str:
     return "phases" if sc.phases else "solver.t_end"
 
 
+def _needs_variables(file: Path, sc, rec, command: str, names) -> None:
+    """Refuse a run that does not record a variable of ``names`` the analysis reads: a
+    scenario whose ``solver.record`` leaves it out (before the run), or a saved result
+    without it."""
+    from ltdsim.engine.run import recorded
+    from ltdsim.variables import BY_NAME, RECORD_ARRAYS
+
+    if rec.data_vars:  # a result: what it holds
+        missing = [v for v in names if v not in rec]
+    else:  # the run to come: what solver.record keeps
+        kept = {v for k in recorded(sc) for v in RECORD_ARRAYS[k]}
+        missing = [v for v in names if BY_NAME[v].record and v not in kept]
+    if not missing:
+        return
+    held = ", ".join(sc.solver.record or ()) or "the train signals only"
+    raise ScenarioError(str(file), [("solver.record", (
+        f"ltdsim {command} reads {', '.join(missing)}, which "
+        + ("this result does not hold" if rec.data_vars else "the run would not record")
+        + f" (solver.record: {held}); add {'them' if len(missing) > 1 else 'it'} to "
+        "solver.record or leave solver.record out"))])
+
+
 def _check_finite(file: Path, ds, var: str, command: str, columns=None,
                   dim: str = "") -> None:
     """Refuse a recorded ``var`` (of the ``columns`` of ``dim``, 0-based) that holds a
@@ -121,6 +143,11 @@ def _written_or_fail(write) -> None:
         raise typer.Exit(3) from None
 
 
+#: what ``phases`` reads: the norms' forces and accelerations, the figures' motion
+PHASES_READS = ("coupler_force", "acceleration", "speed_error", "velocity",
+                "relative_position", "relative_velocity")
+
+
 def phases(
     file: Annotated[Path, typer.Argument(help="scenario file (TOML) or result (.nc)")],
     case: CaseOpt = None,
@@ -140,6 +167,7 @@ def phases(
         import numpy as np
 
         _needs_couplers(file, sc, "phases", ": it ranks the couplers")
+        _needs_variables(file, sc, rec, "phases", PHASES_READS)
         t = rec.time.values
         for name, a, b in _windows(file, sc, rec):
             if np.searchsorted(t, b, "right") == np.searchsorted(t, a, "left"):
@@ -344,6 +372,7 @@ def spectrum(
                     f"({need * dt:g} s): its first line above 0 Hz, at 1/(samples x "
                     "interval), must lie within the band, and the linear trend removed "
                     f"first leaves nothing of fewer than 3; {hint}"))])
+        _needs_variables(file, sc, rec, "spectrum", ("coupler_force", "coupler_deflection"))
         _check_finite(file, rec, "coupler_force", "spectrum", which, "coupler")
 
     try:
@@ -434,6 +463,7 @@ def sysid(
                 "samples only start the model and least squares needs at least one "
                 "equation per parameter, the second half validates; give a longer run, "
                 "fewer --poles or --zeros" + (", or a smaller --resample-dt" if q > 1 else "")))])
+        _needs_variables(file, sc, rec, "sysid", ("traction_force", "acceleration"))
         _check_finite(file, rec, "traction_force", "sysid")
         _check_finite(file, rec, "acceleration", "sysid", [1], "vehicle")
 
