@@ -128,6 +128,9 @@ def test_max_cylinder_above_the_equalisation_is_refused():
     build(_fluid({"preset": "uic-g", "control_valve": {"max_cylinder": 0.99 * p_eq}}))
     text = _refused(_fluid({"preset": "uic-g", "control_valve": {"max_cylinder": 1.01 * p_eq}}))
     assert "control_valve.max_cylinder (4.21 bar) must not exceed" in text
+    # the key once, as the validator names it (not "brake: brake.fluid.valve: ...")
+    assert ": brake.fluid.valve: control_valve.max_cylinder" in text, text
+    assert "brake: brake." not in text, text
     assert ("p_eq = driver_valve.regulated x auxiliary_volume / (auxiliary_volume + "
             "cylinder_volume) = 5 bar x 0.1 / (0.1 + 0.02) m^3 = 4.17 bar") in text
     # a smaller reservoir (50 l: 3.57 bar), or a lower pipe (4.5 bar: 3.75 bar), under 3.8

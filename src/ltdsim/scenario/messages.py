@@ -56,6 +56,12 @@ def _problems(exc: ValidationError, root=None) -> list[tuple[str, str]]:
             msg = "required key is missing"
         elif msg.startswith("Value error, "):
             msg = msg[len("Value error, "):]
+            # a validator whose message names its own key below this table ("brake:
+            # brake.fluid.valve: ..."): the key once, the message's
+            head = msg.split(": ", 1)
+            if key and len(head) == 2 and head[0].startswith(key + ".") and \
+                    " " not in head[0]:
+                key, msg = head
         if err["type"] in ("finite_number",):
             msg = "must be a finite number (NaN and inf are not allowed)"
         if "input" in err and err["type"] not in ("missing", "extra_forbidden") and not isinstance(
