@@ -36,6 +36,7 @@ Usage: python benchmarks/bench_kernel.py [--repeats 7] [--rounds 11] [--scipy-wi
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import resource
@@ -120,7 +121,8 @@ def _against_reference(sc, rounds: int) -> dict:
 
 def _paired(first, second, rounds: int, what: str) -> dict:
     """CPU and wall seconds of ``simulate(first)`` and ``simulate(second)``: a warm-up of
-    both, then ``rounds`` interleaved rounds (the order alternating); each round's ratio
+    both, then ``rounds`` interleaved rounds (the order alternating), each run after a
+    garbage collection and with the collector off while it runs; each round's ratio
     second / first of CPU time (``times["round ratios"]``)."""
     ltdsim.simulate(first)
     ltdsim.simulate(second)
@@ -128,9 +130,16 @@ def _paired(first, second, rounds: int, what: str) -> dict:
     times = {k: {"cpu": [], "wall": []} for k in runs}
     for r in range(rounds):
         for name in (("first", "second") if r % 2 == 0 else ("second", "first")):
-            c0, w0 = _clocks()
-            ltdsim.simulate(runs[name])
-            c1, w1 = _clocks()
+            # each run starts from the same state: the previous run's result collected
+            # now (not by a cyclic collection inside the next run's timing), none during
+            gc.collect()
+            gc.disable()
+            try:
+                c0, w0 = _clocks()
+                ltdsim.simulate(runs[name])
+                c1, w1 = _clocks()
+            finally:
+                gc.enable()
             times[name]["cpu"].append(c1 - c0)
             times[name]["wall"].append(w1 - w0)
         print(f"{what} round {r + 1}/{rounds} done", file=sys.stderr, flush=True)
@@ -231,7 +240,7 @@ def main(argv=None) -> dict:
                     help="interleaved rounds of simulate() against the reference kernel")
     ap.add_argument("--drive-rounds", type=int, default=7,
                     help="interleaved rounds of the induction-drive case against the curve's")
-    ap.add_argument("--energy-rounds", type=int, default=7,
+    ap.add_argument("--energy-rounds", type=int, default=11,
                     help="interleaved rounds of the study case with the energy accounted "
                          "against without")
     ap.add_argument("--baseline", default=BASELINE,

@@ -290,7 +290,11 @@ class Scenario(_Strict):
 
     @classmethod
     def from_dict(cls, data: dict, source: str = "<dict>") -> "Scenario":
-        """Validate a plain dictionary (as read from TOML) into a Scenario."""
+        """Validate a plain dictionary (as read from TOML) into a Scenario: types, ranges
+        and relations, as for a file. It does not refuse keys that would have no effect
+        (a dump of a scenario, :meth:`to_dict`, holds every key): for a user's table use
+        :func:`ltdsim.scenario.scenario_from_data`, which also does that and applies a
+        case, as :func:`ltdsim.load_scenario` does for a file."""
         try:
             return cls.model_validate(data)
         except ValidationError as exc:
