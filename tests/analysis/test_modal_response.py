@@ -170,3 +170,20 @@ def test_welch_psd_integrates_to_the_variance_and_peaks_at_the_tone():
     f, p = welch_psd(x, dt, segment_s=20.0)
     assert_allclose(np.trapezoid(p, f), np.var(x), rtol=0.02)  # Parseval
     assert abs(f[np.argmax(p)] - 1.3) <= 0.05
+
+
+def test_a_spectral_peak_names_its_mode_by_the_number_modal_gives_it():
+    """``ltdsim modal`` numbers the modes from 1 = the lowest, the rigid mode at 0 Hz; a
+    peak matched to a mode carries that mode's number (index + 1), so "draft mode 3,
+    2.00 Hz" is the table's row 3."""
+    import numpy as np
+
+    from ltdsim.analysis.spectra import amplitude_spectrum, spectral_peaks
+
+    dt, n = 0.01, 6000
+    t = np.arange(n) * dt
+    f, a = amplitude_spectrum(np.sin(2 * np.pi * 2.0 * t), dt)
+    modes = np.array([0.0, 1.0, 2.0, 3.1])  # as train_modes gives them, lowest first
+    (peak,) = spectral_peaks(f, a, {"draft": modes}, max_peaks=1)
+    assert peak["mode"] == "draft" and modes[peak["mode_index"]] == pytest.approx(2.0)
+    assert peak["mode_index"] + 1 == 3

@@ -70,7 +70,9 @@ def spectral_peaks(f, a, modes=None, f_max: float = 10.0, rel_height: float = 0.
     ("draft", "buff") to the train's natural frequencies (Hz) on that branch; each peak
     at or above ``f_min`` (Hz; default twice the spectrum's resolution ``f[1]``: a line
     nearer to 0 Hz is the window's trend, not a mode) is matched to the nearest of them
-    and labelled with its branch and mode number (from 1, the lowest nonzero)."""
+    and labelled with its branch and ``mode_index`` into that branch's frequencies (the
+    rigid mode at 0 Hz counted: mode number ``mode_index + 1``, as ``ltdsim modal``'s
+    table numbers them; the rigid mode itself is never matched)."""
     band = f <= f_max
     idx, _ = signal.find_peaks(a[band], height=rel_height * a[band].max())
     idx = idx[np.argsort(-a[band][idx])][:max_peaks]
@@ -81,8 +83,11 @@ def spectral_peaks(f, a, modes=None, f_max: float = 10.0, rel_height: float = 0.
         best = None
         if f[i] >= f_min:
             for label, freqs in (modes or {}).items():
-                nonzero = [fm for fm in freqs if fm > 1e-6]
-                for j, fm in enumerate(nonzero):
+                # (j indexes all the modes, the rigid one at 0 Hz included, as
+                # ltdsim modal's table numbers them: mode j + 1)
+                for j, fm in enumerate(freqs):
+                    if fm <= 1e-6:
+                        continue
                     d = abs(fm - f[i])
                     if best is None or d < best[0]:
                         best = (d, label, j, fm)
