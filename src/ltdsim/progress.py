@@ -72,19 +72,23 @@ class Display:
         self._stage_t0 = 0.0
         self._pending = None  # the stage's latest message, when not yet in the log
         self._last_line = {}  # key -> time of its last log line
+        self._running = {}  # bar -> writes its line again (log mode, between updates)
         self._redraw: tuple[threading.Thread, threading.Event] | None = None
         self._stack = ExitStack()
 
     # ------------------------------------------------------------------ plumbing
     def __enter__(self) -> Display:
-        if self.live:
-            from ltdsim._workers import pause_for_fork
+        from ltdsim._workers import pause_for_fork
 
+        if self.live:
             self._progress = Progress(
                 TextColumn("[bold]{task.description}"), BarColumn(bar_width=20),
                 TextColumn("{task.fields[info]}"), TimeElapsedColumn(), _Remaining(),
                 console=self.console, transient=False, auto_refresh=False)
             self._progress.__enter__()
+        if self.live or (not self.quiet and self.interval > 0.0):
+            # a terminal is redrawn; a log gets a running task's line every interval
+            # even while nothing reports (a sweep's long case, a slow stage)
             self._start_redraw()
             self._stack.enter_context(pause_for_fork(self._paused))
         return self
@@ -99,8 +103,12 @@ class Display:
         stop = threading.Event()
 
         def redraw():
-            while not stop.wait(REDRAW_INTERVAL):
-                self._progress.refresh()
+            while not stop.wait(REDRAW_INTERVAL if self.live else
+                                min(1.0, self.interval)):
+                if self.live:
+                    self._progress.refresh()
+                else:
+                    self._heartbeat()
 
         thread = threading.Thread(target=redraw, name="ltdsim-progress-redraw", daemon=True)
         self._redraw = (thread, stop)
@@ -148,6 +156,13 @@ class Display:
         if not self.quiet:
             self.note(text)
 
+    def _heartbeat(self) -> None:
+        """In a log: the latest state of every running bar whose last line is older than
+        ``interval`` (its time and time left as of now)."""
+        for key, again in list(self._running.items()):
+            if self._due(key):
+                again()
+
     def _due(self, key: str, force: bool = False) -> bool:
         now = time.monotonic()
         last = self._last_line.get(key)
@@ -184,6 +199,13 @@ class Display:
         def info(done):
             return f"{fmt.format(done)}/{fmt.format(total)} {unit}"
 
+        def line(done: float, first: bool) -> None:
+            spent = time.monotonic() - t0
+            took = "" if first else f", {spent:.0f} s"
+            if not first and 0.0 < done < total:  # the time left at the rate so far
+                took += f", about {remaining(spent * (total - done) / done)} left"
+            self.log(f"{description}: {info(done)}{took}")
+
         def update(done: float) -> None:
             nonlocal t0, task
             first = t0 is None
@@ -195,12 +217,12 @@ class Display:
                                                    info=info(done))
                 self._progress.update(task, completed=done, info=info(done))
                 return
+            if done >= total:
+                self._running.pop(description, None)
+            else:
+                self._running[description] = lambda: line(done, False)
             if self._due(description, force=first or done >= total):
-                spent = time.monotonic() - t0
-                took = "" if first else f", {spent:.0f} s"
-                if not first and 0.0 < done < total:  # the time left at the rate so far
-                    took += f", about {remaining(spent * (total - done) / done)} left"
-                self.log(f"{description}: {info(done)}{took}")
+                line(done, first)
         return update
 
     def stage(self, stage: str, msg: str) -> None:
