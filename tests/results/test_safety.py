@@ -497,3 +497,44 @@ def test_l_over_v_of_like_vehicles_in_steady_buff_closed_form(force, radius, ove
     # the wheelsets push the outer rail: right on a left-hand curve
     outward = -1.0 if left else 1.0
     assert np.all(np.sign(s.wheelset_force[0, 1:-1]) == outward)
+
+
+def test_a_failing_curving_pass_keeps_the_run_and_says_so_in_one_line(tmp_path, monkeypatch):
+    """The curving indicators are computed after the run: when that pass fails (here made
+    to run out of memory) the run is not lost. ``simulate`` returns every recorded
+    variable, equal to the same run without ``[curving]``, the reason in
+    ``attrs["curving_error"]`` and a RuntimeWarning; ``ltdsim run -o`` prints one
+    warning line, no traceback, exits 0 and writes the result."""
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    import ltdsim
+    import ltdsim.results.safety as safety
+    from conftest import ROOT
+    from ltdsim.cli.app import app
+
+    path = ROOT / "scenarios" / "short-train.toml"
+    sc = ltdsim.load_scenario(path).with_overrides({"solver.t_end": 1.0, "curving": {}})
+
+    def broken(ds, scenario):
+        raise MemoryError("unable to allocate 2.1 GiB")
+
+    monkeypatch.setattr(safety, "add_curving", broken)
+    with pytest.warns(RuntimeWarning, match="curving indicators not computed"):
+        ds = ltdsim.simulate(sc)
+    plain = ltdsim.simulate(sc.with_overrides({"curving": None}))
+    assert "wheel_l_over_v" not in ds
+    assert "MemoryError: unable to allocate 2.1 GiB" in ds.attrs["curving_error"]
+    for name in plain.data_vars:
+        np.testing.assert_array_equal(ds[name].values, plain[name].values)
+    toml = tmp_path / "s.toml"
+    toml.write_text(path.read_text().replace("t_end = 60.0", "t_end = 1.0")
+                    .replace("[traction]", "[curving]\n\n[traction]"))
+    res = CliRunner().invoke(app, ["run", str(toml), "-q", "-o", str(tmp_path / "r.nc")])
+    assert res.exit_code == 0, res.output
+    assert "Traceback" not in res.output and res.exception is None
+    warned = [ln for ln in res.stderr.splitlines() if "curving indicators not computed" in ln]
+    assert len(warned) == 1 and warned[0].startswith("warning:")
+    kept = xr.load_dataset(tmp_path / "r.nc")
+    np.testing.assert_array_equal(kept.position.values, plain.position.values)
+    assert "curving_error" in kept.attrs

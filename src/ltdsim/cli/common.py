@@ -89,11 +89,14 @@ def simulate_shown(sc, quiet: bool = False, source=None, step_source=None):
     recording too large for the memory available (naming ``source``, the scenario file),
     warn about a step near the largest stable one, compile or load its kernel
     ("compiling (first run only)"), then a progress bar of simulated seconds on stderr
-    (plain lines in a log)."""
+    (plain lines in a log). A curving pass that fails after the run is one warning line,
+    and the run is returned without its indicators."""
     from ltdsim.engine.preflight import check, warning
     from ltdsim.engine.run import check_memory
     from ltdsim.engine.warmup import scenario_kernels, warm_up
-    from ltdsim.results.simulate import simulate
+    import warnings
+
+    from ltdsim.results.simulate import CURVING_FAILED, simulate
 
     lim = check(sc, step_source or (None if source is None else str(source)))
     check_memory(sc, source=None if source is None else str(source))
@@ -105,7 +108,13 @@ def simulate_shown(sc, quiet: bool = False, source=None, step_source=None):
         update = show.bar(f"simulating {scenario_label(sc)}", sc.solver.n_steps * sc.solver.dt,
                           "s simulated", "{:.1f}")
         update(0.0)
-        return simulate(sc, progress=lambda done, total: update(done))
+        with warnings.catch_warnings():  # (printed below as one line of its own)
+            warnings.filterwarnings("ignore", message=CURVING_FAILED, category=RuntimeWarning)
+            ds = simulate(sc, progress=lambda done, total: update(done))
+    if ds.attrs.get("curving_error"):
+        err_console.print(f"[yellow]warning:[/] {escape(ds.attrs['curving_error'])}",
+                          soft_wrap=True)
+    return ds
 
 
 def fail(exc: LtdsimError) -> None:
