@@ -130,16 +130,22 @@ class Track(_Strict):
                              "leave those out")
         return self
 
-    def resistance_curve(self) -> Points:
+    def resistance_curve(self, reach: tuple[float, float] | None = None) -> Points:
         """The ``curve`` table the kernel's curve resistance reads: ``curve`` itself when
         the alignment has no transitions or profile, otherwise the alignment's curvature
         averaged over steps of at most 5 m (the ramps keep their integral of curvature,
-        so the curve resistance summed over them is that of the alignment), m and m."""
+        so the curve resistance summed over them is that of the alignment), m and m;
+        with ``reach`` (from m, to m) the steps cover that stretch only (the alignment's
+        values beyond it are its values at its ends), so that a profile reaching
+        10,000 km costs only the steps the run can reach."""
         if not self.transitions and not self.profile:
             return self.curve
         from ltdsim.physics.alignment import alignment_of
 
-        return alignment_of(self).step_table(5.0)
+        align = alignment_of(self)
+        if reach is not None:
+            align = align.clipped(*reach)
+        return align.step_table(5.0)
 
 
 class Curving(_Strict):
