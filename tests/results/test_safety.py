@@ -538,3 +538,74 @@ def test_a_failing_curving_pass_keeps_the_run_and_says_so_in_one_line(tmp_path, 
     kept = xr.load_dataset(tmp_path / "r.nc")
     np.testing.assert_array_equal(kept.position.values, plain.position.values)
     assert "curving_error" in kept.attrs
+
+
+def test_wheel_lift_is_reported_as_such_and_never_as_an_infinite_l_over_v(tmp_path,
+                                                                         monkeypatch):
+    """A flanging wheel the roll moment unloads fully has no L/V (the result stores inf
+    there). Made to happen at two known places of a real run (vehicle 3 from record 5,
+    vehicle 4 at record 7): the summary names the first lift (vehicle 3, its time and
+    chainage) and the worst L/V of the loaded wheels (the largest finite value);
+    ``ltdsim run``'s lines, the report page, its curving_worst.csv (the lifting vehicles
+    first) and the figure say "wheel lift" and print no "inf" anywhere."""
+    import re
+
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    import ltdsim.results.safety as safety
+    from conftest import ROOT
+    from ltdsim.cli.app import app
+    from ltdsim.results.summary import curving_summary, l_over_v_text
+
+    real = safety.add_curving
+
+    def lifting(ds, scenario):
+        out = real(ds, scenario)
+        lv = out.wheel_l_over_v.values
+        lv[5:, 2] = np.inf
+        lv[7, 3] = np.inf
+        return out
+
+    monkeypatch.setattr(safety, "add_curving", lifting)
+    toml = tmp_path / "s.toml"
+    toml.write_text((ROOT / "scenarios" / "short-train.toml").read_text()
+                    .replace("t_end = 60.0", "t_end = 1.0")
+                    .replace("output_interval = 1e-3", "output_interval = 0.05")
+                    .replace("[traction]", "[curving]\n\n[traction]"))
+    res = CliRunner().invoke(app, ["run", str(toml), "-q", "-o", str(tmp_path / "r.nc"),
+                                   "-p", str(tmp_path / "r.png"),
+                                   "--report", str(tmp_path / "rep")])
+    assert res.exit_code == 0, res.output
+    ds = xr.load_dataset(tmp_path / "r.nc")
+    c = curving_summary(ds)
+    t, x = ds.time.values, ds.position.values
+    assert (c["wheel_lift_vehicles"], c["wheel_lift_vehicle"]) == (2, 3)
+    assert c["wheel_lift_time_s"] == t[5] and c["wheel_lift_position_m"] == x[5, 2]
+    lv = ds.wheel_l_over_v.values
+    assert c["max_l_over_v"] == lv[np.isfinite(lv)].max()
+    text = l_over_v_text(c)
+    assert text.startswith(f"wheel lift: the flanging wheel of vehicle 3 unloads fully at "
+                           f"{t[5]:.1f} s, chainage {x[5, 2]:.0f} m (L/V undefined")
+    assert "2 vehicles lift a wheel" in text and "worst L/V of the loaded wheels" in text
+    out = " ".join(res.output.split())
+    assert f"curving: {text}" in out
+    page = (tmp_path / "rep" / "index.html").read_text()
+    csv = (tmp_path / "rep" / "curving_worst.csv").read_text()
+    assert "Wheel lift:" in page and "vehicle 3" in page
+    for written in (out, page, csv):
+        assert not re.search(r"\binf\b", written, re.I), written
+    from ltdsim.viz.plotting import curving_figure
+
+    import matplotlib.pyplot as plt
+
+    fig = curving_figure(ds, c)
+    title = fig._suptitle.get_text()
+    plt.close(fig)
+    assert title.startswith("wheel lift at vehicle 3") and "inf" not in title
+    rows = csv.splitlines()
+    assert rows[1].split(",")[0] == "3" and rows[2].split(",")[0] == "4"
+    assert "wheel lift" in rows[0] and rows[1].count("yes") == 1
+    # without a lift the sentence is the plain worst L/V, as before
+    plain = {k: v for k, v in c.items() if not k.startswith("wheel_lift")}
+    assert l_over_v_text(plain).startswith(f"worst wheel L/V {c['max_l_over_v']:.3f} (")

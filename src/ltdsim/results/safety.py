@@ -234,7 +234,8 @@ def add_curving(ds: xr.Dataset, scenario, chunk: int = 2000) -> xr.Dataset:
                                    "(buff)"})
     out["wheel_l_over_v"] = (vd, lv, {
         "units": "1", "long_name": "L/V of the flanging wheel of the worse leading wheelset "
-                                   "of the vehicle"})
+                                   "of the vehicle (inf where that wheel has no load left: "
+                                   "wheel lift, its L/V undefined)"})
     out["wheelset_lateral_force"] = (vd, hws, {
         "units": "N", "long_name": "largest lateral force of a leading wheelset of the "
                                    "vehicle on the track (magnitude)"})

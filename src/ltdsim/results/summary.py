@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import json
 
 import numpy as np
@@ -563,29 +564,46 @@ def curving_summary(ds: xr.Dataset) -> dict | None:
     (m, the vehicle centre), against Nadal's limit; the largest leading-wheelset lateral
     force (N) against the vehicle's Prud'homme limit; the largest coupler angle (rad)
     with its coupler number; the largest inward and outward lateral coupler components
-    (N)."""
+    (N). Where a flanging wheel unloads fully (its L/V undefined: wheel lift, beyond
+    any L/V limit) also ``wheel_lift_vehicles`` (how many vehicles lift a wheel) and
+    the first lift's ``wheel_lift_vehicle``, ``wheel_lift_time_s`` and
+    ``wheel_lift_position_m``; ``max_l_over_v`` is then the worst L/V of the wheels
+    that keep load (NaN if none does). :func:`l_over_v_text` words it."""
     if "wheel_l_over_v" not in ds:
         return None
     lv = ds.wheel_l_over_v.values
     t = ds.time.values
-    finite = np.where(np.isfinite(lv), lv, np.inf)
+    # a flanging wheel the roll moment unloads fully has no L/V (safety.py stores inf):
+    # wheel lift, reported as such; the worst L/V is that of the wheels with load
+    lifted = np.isposinf(lv)
+    finite = np.where(np.isfinite(lv), lv, -np.inf)
     k, i = np.unravel_index(int(np.argmax(finite)), lv.shape)
+    worst = float(lv[k, i]) if np.isfinite(lv[k, i]) else math.nan
     h = ds.wheelset_lateral_force.values
     ratio = h / ds.prudhomme_limit.values[None, :]
     kh, ih = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     out = {
-        "max_l_over_v": float(lv[k, i]),
+        "max_l_over_v": worst,
         "l_over_v_vehicle": int(i) + 1,
         "l_over_v_time_s": float(t[k]),
         "l_over_v_position_m": float(ds.position.values[k, i]),
         "nadal_limit": float(ds.nadal_limit),
-        "l_over_v_share_of_limit": float(lv[k, i] / float(ds.nadal_limit)),
+        "l_over_v_share_of_limit": worst / float(ds.nadal_limit),
         "max_wheelset_force_N": float(h[kh, ih]),
         "wheelset_force_vehicle": int(ih) + 1,
         "wheelset_force_time_s": float(t[kh]),
         "prudhomme_limit_N": float(ds.prudhomme_limit.values[ih]),
         "wheelset_force_share_of_limit": float(ratio[kh, ih]),
     }
+    if lifted.any():  # the first record with a lift, its first vehicle
+        kl = int(np.argmax(lifted.any(axis=1)))
+        il = int(np.argmax(lifted[kl]))
+        out.update({
+            "wheel_lift_vehicles": int(lifted.any(axis=0).sum()),
+            "wheel_lift_vehicle": il + 1,
+            "wheel_lift_time_s": float(t[kl]),
+            "wheel_lift_position_m": float(ds.position.values[kl, il]),
+        })
     if ds.sizes.get("coupler", 0):
         a = ds.coupler_angle.values
         ka, ja = np.unravel_index(int(np.argmax(a)), a.shape)
@@ -602,6 +620,27 @@ def curving_summary(ds: xr.Dataset) -> dict | None:
         if stop:
             out["couplers_at_stops"] = int((a >= stop).any(axis=0).sum())
     return out
+
+
+def l_over_v_text(c: dict) -> str:
+    """The worst wheel L/V of a :func:`curving_summary` ``c`` in words, with its place:
+    "worst wheel L/V 0.812 (72 % of Nadal's 1.128) at vehicle 3, 4.5 s, chainage 120 m",
+    or where a wheel lifts "wheel lift: ..." first (an L/V there is undefined, not
+    infinite), then the worst L/V of the wheels that keep load."""
+    place = (f"at vehicle {c['l_over_v_vehicle']}, {c['l_over_v_time_s']:.1f} s, "
+             f"chainage {c['l_over_v_position_m']:.0f} m")
+    worst = (f"{c['max_l_over_v']:.3f} ({100 * c['l_over_v_share_of_limit']:.0f} % of "
+             f"Nadal's {c['nadal_limit']:.3f}) {place}")
+    if "wheel_lift_vehicle" not in c:
+        return f"worst wheel L/V {worst}"
+    n = c["wheel_lift_vehicles"]
+    lift = (f"wheel lift: the flanging wheel of vehicle {c['wheel_lift_vehicle']} unloads "
+            f"fully at {c['wheel_lift_time_s']:.1f} s, chainage "
+            f"{c['wheel_lift_position_m']:.0f} m (L/V undefined, beyond Nadal's limit "
+            f"{c['nadal_limit']:.3f}; {n} vehicle{'s' if n > 1 else ''} lift a wheel)")
+    if not math.isfinite(c["max_l_over_v"]):
+        return lift
+    return f"{lift}; worst L/V of the loaded wheels {worst}"
 
 
 #: J per kWh
