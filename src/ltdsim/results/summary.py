@@ -14,6 +14,10 @@ from ltdsim.results.io import scenario_of
 #: m: rating travel of an AAR M-901 draft gear of 3-1/4 in (82.55 mm), the reference
 #: against which gears without a stated travel (the study's simplified coupler) are checked
 REFERENCE_TRAVEL = 0.083
+#: m: the least deflection beyond its travel that counts a gear as beyond it (one
+#: micrometre): below it the excess is the rounding of a gear at its travel, not travel
+#: exceeded; above it a warning gives it to at least two significant figures
+TRAVEL_RESOLUTION = 1e-6
 #: rows per block in :func:`column_max` and :func:`column_min`
 _BLOCK_ROWS = 64
 
@@ -196,7 +200,8 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
         ``travel_stated`` (True if the coupler has its own ``travel``, False if the
         reference is used), ``max_draft_m`` and ``max_buff_m`` (largest deflection of one
         gear in draft and in buff, >= 0), ``max_deflection_m`` (the larger),
-        ``excess_m`` (beyond the travel, >= 0) and ``exceeds`` (bool).
+        ``excess_m`` (beyond the travel, >= 0) and ``exceeds`` (bool: an excess of
+        more than :data:`TRAVEL_RESOLUTION`).
     """
     scenario = scenario_of(ds, scenario)
     d = ds.coupler_deflection.values
@@ -217,22 +222,24 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
         "coupler": ds.coupler.values, "slack_m": 2.0 * half, "gears": gears.astype(int),
         "travel_m": travel,
         "travel_stated": stated, "max_draft_m": draft, "max_buff_m": buff,
-        "max_deflection_m": largest, "excess_m": excess, "exceeds": excess > 0.0,
+        "max_deflection_m": largest, "excess_m": excess,
+        "exceeds": excess > TRAVEL_RESOLUTION,
     }).set_index("coupler")
 
 
 def travel_warning(ds: xr.Dataset, scenario=None,
                    reference_travel: float = REFERENCE_TRAVEL) -> str | None:
     """One line naming the couplers (counted from 1, coupler 1 behind the lead vehicle)
-    whose gears deflected beyond their travel (see :func:`gear_travel_check`) and by how
-    much, mm; None when none did (or the run did not record coupler_deflection)."""
+    whose gears deflected beyond their travel by more than :data:`TRAVEL_RESOLUTION`
+    (see :func:`gear_travel_check`) and by how much, mm (two significant figures below
+    10 mm); None when none did (or the run did not record coupler_deflection)."""
     if "coupler_deflection" not in ds:
         return None
     table = gear_travel_check(ds, scenario, reference_travel)
     over = table[table.exceeds]
     if over.empty:
         return None
-    parts = [f"{j + 1} by {row.excess_m * 1e3:.0f} mm" for j, row in over.iterrows()]
+    parts = [f"{j + 1} by {_mm(row.excess_m)}" for j, row in over.iterrows()]
     stated = over.travel_stated.all()
     reference = f"{reference_travel * 1e3:.0f} mm, a real gear's travel (AAR 3-1/4 in)"
     if stated:
@@ -243,7 +250,14 @@ def travel_warning(ds: xr.Dataset, scenario=None,
         limit = f"their travel (stated, or {reference})"
     worst = over.max_deflection_m.max()
     return (f"gears deflect beyond {limit}: coupler{'s' if len(over) > 1 else ''} "
-            f"{', '.join(parts)} (largest deflection beyond the slack {worst * 1e3:.0f} mm)")
+            f"{', '.join(parts)} (largest deflection beyond the slack {_mm(worst)})")
+
+
+def _mm(x: float) -> str:
+    """A length ``x`` (m) in millimetres as a warning prints it: whole millimetres from
+    10 mm, else two significant figures (0.31 mm, never "0 mm" for a real excess)."""
+    mm = x * 1e3
+    return f"{mm:.0f} mm" if mm >= 9.5 else f"{mm:.2g} mm"
 
 
 # ------------------------------------------------------------------ fluid air brake
