@@ -609,3 +609,24 @@ def test_wheel_lift_is_reported_as_such_and_never_as_an_infinite_l_over_v(tmp_pa
     # without a lift the sentence is the plain worst L/V, as before
     plain = {k: v for k, v in c.items() if not k.startswith("wheel_lift")}
     assert l_over_v_text(plain).startswith(f"worst wheel L/V {c['max_l_over_v']:.3f} (")
+
+
+def test_straight_track_prints_no_negative_zero(tmp_path):
+    """On straight track no coupler has a lateral component: the summary's largest
+    inward and outward components are +0 N and ``ltdsim run`` prints no "-0.0 kN"
+    (the records' signed zeros once came out as "up to -0.0 kN inward")."""
+    from typer.testing import CliRunner
+
+    from conftest import ROOT
+    from ltdsim.cli.app import app
+
+    toml = tmp_path / "straight.toml"
+    toml.write_text((ROOT / "scenarios" / "short-train.toml").read_text()
+                    .replace("t_end = 60.0", "t_end = 1.0")
+                    .replace("curve = [[0.0, 0.0], [150.0, 300.0], [450.0, 0.0]]", "")
+                    .replace("[traction]", "[curving]\n\n[traction]"))
+    res = CliRunner().invoke(app, ["run", str(toml), "-q"])
+    assert res.exit_code == 0, res.output
+    out = " ".join(res.output.split())
+    assert "lateral coupler components up to 0.0 kN inward (draft), 0.0 kN outward" in out
+    assert "-0.0" not in out

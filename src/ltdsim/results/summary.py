@@ -626,8 +626,9 @@ def curving_summary(ds: xr.Dataset) -> dict | None:
             "max_coupler_angle_rad": float(a[ka, ja]),
             "coupler_angle_coupler": int(ja) + 1,
             "coupler_angle_time_s": float(t[ka]),
-            "max_inward_coupler_force_N": float(max(lat.max(), 0.0)),
-            "max_outward_coupler_force_N": float(max(-lat.min(), 0.0)),
+            # (abs: a signed zero of the records would print as "-0.0 kN")
+            "max_inward_coupler_force_N": abs(float(max(lat.max(), 0.0))),
+            "max_outward_coupler_force_N": abs(float(max(-lat.min(), 0.0))),
         })
         lim = json.loads(ds.attrs.get("scenario_json", "{}")).get("curving") or {}
         stop = lim.get("coupler_angle_limit")
