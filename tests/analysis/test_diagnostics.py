@@ -138,6 +138,24 @@ def test_gear_travel_check_and_warning_use_the_stated_travel_or_the_reference():
     assert travel_warning(quiet) is None
 
 
+def test_a_gear_beyond_its_travel_by_less_than_a_millimetre_is_not_shown_as_0_mm():
+    """Gears of 60 mm travel deflected 0.3 mm and 4.2 mm beyond it (coupler 1 in draft,
+    coupler 2 in buff): the warning gives both to two figures, "by 0.3 mm" and
+    "by 4.2 mm", never "by 0 mm"; 0.4 micrometres beyond it (the rounding of a gear at
+    its travel) is not an excess and no warning is given."""
+    sc = speed_train(travel=0.06)
+    ds = constructed_result(sc, stretch=(0.0603, 0.05), bunch=(0.02, 0.0642))
+    table = gear_travel_check(ds)
+    assert_allclose(table.excess_m, [3e-4, 4.2e-3], rtol=1e-6)
+    line = travel_warning(ds)
+    assert "couplers 1 by 0.3 mm, 2 by 4.2 mm" in line, line
+    assert "by 0 mm" not in line and "largest deflection beyond the slack 64 mm" in line
+    assert list(table.exceeds) == [True, True]
+    edge = constructed_result(sc, stretch=(0.06 + 4e-7, 0.05), bunch=(0.02, 0.05))
+    assert not gear_travel_check(edge).exceeds.any()
+    assert travel_warning(edge) is None
+
+
 def test_cruise_window_needs_a_constant_reference():
     sc = speed_train()
     ds = constructed_result(sc)

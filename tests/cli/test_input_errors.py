@@ -1067,3 +1067,50 @@ def test_curving_indicators_need_the_positions_and_forces_recorded():
     sc = ltdsim.load_scenario(ROOT / "scenarios" / "heavy-haul-s-curve.toml")
     with pytest.raises(ScenarioError, match=r"solver\.record.*\[curving\].*position"):
         sc.with_overrides({"solver.record": ["coupler_force"]})
+
+
+FAR = ["-1e300", "1e300", "-1.00001e7"]
+
+
+@pytest.mark.parametrize("where", ["gradient", "curve", "cant", "transitions", "profile"])
+@pytest.mark.parametrize("far", FAR)
+def test_a_track_position_beyond_10000_km_is_refused_in_one_line(tmp_path, where, far):
+    """A track table's position beyond +-1e7 m (10,000 km: no line is longer) is refused
+    at load in one line naming the file, the key and the range, before any run (a
+    position of 1e300 m once ended the run, or its curving pass, in a traceback)."""
+    tracks = {
+        "gradient": f"gradient = [[{far}, 0.0], [300.0, 0.005]]",
+        "curve": f"curve = [[0.0, 0.0], [150.0, 300.0], [{far}, 0.0]]"
+                 if not far.startswith("-") else f"curve = [[{far}, 0.0], [150.0, 300.0]]",
+        "cant": f"curve = [[0.0, 0.0], [150.0, 300.0]]\ncant = [[{far}, 0.0], [1e7, 0.1]]"
+                if far.startswith("-") else f"cant = [[0.0, 0.0], [{far}, 0.1]]",
+        "transitions": f"curve = [[0.0, 0.0], [{far}, 300.0]]\n"
+                       f"transitions = [[{far}, 30.0]]",
+        "profile": f"profile = [[{far}, 0.0, 0.0], [1e7, 0.01, 0.0]]"
+                   if far.startswith("-") else f"profile = [[0.0, 0.0, 0.0], [{far}, 0.01, 0.0]]",
+    }
+    text = EXAMPLE.replace("curve = [[0.0, 0.0], [150.0, 300.0], [450.0, 0.0]]", "")
+    text = text.replace("gradient = [[0.0, 0.0], [300.0, 0.005]]", tracks[where])
+    path = write(tmp_path, text)
+    line = cli_refused("run", path, "-q")
+    assert "bad.toml" in line and f"track.{where}" in line
+    assert "within +-1e+07 m" in line and "10,000 km" in line
+    assert f"got {float(far):g} m" in line
+
+
+def test_a_profile_csv_chainage_beyond_10000_km_names_the_csv_line(tmp_path):
+    (tmp_path / "align.csv").write_text("chainage,curvature,cant\n0,0,0\n1e300,0.001,0\n")
+    text = EXAMPLE.replace("curve = [[0.0, 0.0], [150.0, 300.0], [450.0, 0.0]]",
+                           'profile_file = "align.csv"')
+    line = cli_refused("run", write(tmp_path, text), "-q")
+    assert "track.profile_file" in line and "align.csv line 3" in line
+    assert "within +-1e+07 m" in line and "got 1e+300 m" in line
+
+
+def test_track_positions_at_the_bound_load():
+    """+-1e7 m itself is a place on a (very long) line: accepted."""
+    d = train_dict([8e4, 8e4])
+    d["track"] = {"gradient": [[-1e7, 0.0], [0.0, 0.001], [1e7, 0.0]],
+                  "curve": [[-1e7, 0.0], [1e7, 300.0]]}
+    sc = build(d)
+    assert sc.track.gradient[0] == (-1e7, 0.0)

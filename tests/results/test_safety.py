@@ -497,3 +497,136 @@ def test_l_over_v_of_like_vehicles_in_steady_buff_closed_form(force, radius, ove
     # the wheelsets push the outer rail: right on a left-hand curve
     outward = -1.0 if left else 1.0
     assert np.all(np.sign(s.wheelset_force[0, 1:-1]) == outward)
+
+
+def test_a_failing_curving_pass_keeps_the_run_and_says_so_in_one_line(tmp_path, monkeypatch):
+    """The curving indicators are computed after the run: when that pass fails (here made
+    to run out of memory) the run is not lost. ``simulate`` returns every recorded
+    variable, equal to the same run without ``[curving]``, the reason in
+    ``attrs["curving_error"]`` and a RuntimeWarning; ``ltdsim run -o`` prints one
+    warning line, no traceback, exits 0 and writes the result."""
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    import ltdsim
+    import ltdsim.results.safety as safety
+    from conftest import ROOT
+    from ltdsim.cli.app import app
+
+    path = ROOT / "scenarios" / "short-train.toml"
+    sc = ltdsim.load_scenario(path).with_overrides({"solver.t_end": 1.0, "curving": {}})
+
+    def broken(ds, scenario):
+        raise MemoryError("unable to allocate 2.1 GiB")
+
+    monkeypatch.setattr(safety, "add_curving", broken)
+    with pytest.warns(RuntimeWarning, match="curving indicators not computed"):
+        ds = ltdsim.simulate(sc)
+    plain = ltdsim.simulate(sc.with_overrides({"curving": None}))
+    assert "wheel_l_over_v" not in ds
+    assert "MemoryError: unable to allocate 2.1 GiB" in ds.attrs["curving_error"]
+    for name in plain.data_vars:
+        np.testing.assert_array_equal(ds[name].values, plain[name].values)
+    toml = tmp_path / "s.toml"
+    toml.write_text(path.read_text().replace("t_end = 60.0", "t_end = 1.0")
+                    .replace("[traction]", "[curving]\n\n[traction]"))
+    res = CliRunner().invoke(app, ["run", str(toml), "-q", "-o", str(tmp_path / "r.nc")])
+    assert res.exit_code == 0, res.output
+    assert "Traceback" not in res.output and res.exception is None
+    warned = [ln for ln in res.stderr.splitlines() if "curving indicators not computed" in ln]
+    assert len(warned) == 1 and warned[0].startswith("warning:")
+    kept = xr.load_dataset(tmp_path / "r.nc")
+    np.testing.assert_array_equal(kept.position.values, plain.position.values)
+    assert "curving_error" in kept.attrs
+
+
+def test_wheel_lift_is_reported_as_such_and_never_as_an_infinite_l_over_v(tmp_path,
+                                                                         monkeypatch):
+    """A flanging wheel the roll moment unloads fully has no L/V (the result stores inf
+    there). Made to happen at two known places of a real run (vehicle 3 from record 5,
+    vehicle 4 at record 7): the summary names the first lift (vehicle 3, its time and
+    chainage) and the worst L/V of the loaded wheels (the largest finite value);
+    ``ltdsim run``'s lines, the report page, its curving_worst.csv (the lifting vehicles
+    first) and the figure say "wheel lift" and print no "inf" anywhere."""
+    import re
+
+    import xarray as xr
+    from typer.testing import CliRunner
+
+    import ltdsim.results.safety as safety
+    from conftest import ROOT
+    from ltdsim.cli.app import app
+    from ltdsim.results.summary import curving_summary, l_over_v_text
+
+    real = safety.add_curving
+
+    def lifting(ds, scenario):
+        out = real(ds, scenario)
+        lv = out.wheel_l_over_v.values
+        lv[5:, 2] = np.inf
+        lv[7, 3] = np.inf
+        return out
+
+    monkeypatch.setattr(safety, "add_curving", lifting)
+    toml = tmp_path / "s.toml"
+    toml.write_text((ROOT / "scenarios" / "short-train.toml").read_text()
+                    .replace("t_end = 60.0", "t_end = 1.0")
+                    .replace("output_interval = 1e-3", "output_interval = 0.05")
+                    .replace("[traction]", "[curving]\n\n[traction]"))
+    res = CliRunner().invoke(app, ["run", str(toml), "-q", "-o", str(tmp_path / "r.nc"),
+                                   "-p", str(tmp_path / "r.png"),
+                                   "--report", str(tmp_path / "rep")])
+    assert res.exit_code == 0, res.output
+    ds = xr.load_dataset(tmp_path / "r.nc")
+    c = curving_summary(ds)
+    t, x = ds.time.values, ds.position.values
+    assert (c["wheel_lift_vehicles"], c["wheel_lift_vehicle"]) == (2, 3)
+    assert c["wheel_lift_time_s"] == t[5] and c["wheel_lift_position_m"] == x[5, 2]
+    lv = ds.wheel_l_over_v.values
+    assert c["max_l_over_v"] == lv[np.isfinite(lv)].max()
+    text = l_over_v_text(c)
+    assert text.startswith(f"wheel lift: the flanging wheel of vehicle 3 unloads fully at "
+                           f"{t[5]:.1f} s, chainage {x[5, 2]:.0f} m (L/V undefined")
+    assert "2 vehicles lift a wheel" in text and "worst L/V of the loaded wheels" in text
+    out = " ".join(res.output.split())
+    assert f"curving: {text}" in out
+    page = (tmp_path / "rep" / "index.html").read_text()
+    csv = (tmp_path / "rep" / "curving_worst.csv").read_text()
+    assert "Wheel lift:" in page and "vehicle 3" in page
+    for written in (out, page, csv):
+        assert not re.search(r"\binf\b", written, re.I), written
+    from ltdsim.viz.plotting import curving_figure
+
+    import matplotlib.pyplot as plt
+
+    fig = curving_figure(ds, c)
+    title = fig._suptitle.get_text()
+    plt.close(fig)
+    assert title.startswith("wheel lift at vehicle 3") and "inf" not in title
+    rows = csv.splitlines()
+    assert rows[1].split(",")[0] == "3" and rows[2].split(",")[0] == "4"
+    assert "wheel lift" in rows[0] and rows[1].count("yes") == 1
+    # without a lift the sentence is the plain worst L/V, as before
+    plain = {k: v for k, v in c.items() if not k.startswith("wheel_lift")}
+    assert l_over_v_text(plain).startswith(f"worst wheel L/V {c['max_l_over_v']:.3f} (")
+
+
+def test_straight_track_prints_no_negative_zero(tmp_path):
+    """On straight track no coupler has a lateral component: the summary's largest
+    inward and outward components are +0 N and ``ltdsim run`` prints no "-0.0 kN"
+    (the records' signed zeros once came out as "up to -0.0 kN inward")."""
+    from typer.testing import CliRunner
+
+    from conftest import ROOT
+    from ltdsim.cli.app import app
+
+    toml = tmp_path / "straight.toml"
+    toml.write_text((ROOT / "scenarios" / "short-train.toml").read_text()
+                    .replace("t_end = 60.0", "t_end = 1.0")
+                    .replace("curve = [[0.0, 0.0], [150.0, 300.0], [450.0, 0.0]]", "")
+                    .replace("[traction]", "[curving]\n\n[traction]"))
+    res = CliRunner().invoke(app, ["run", str(toml), "-q"])
+    assert res.exit_code == 0, res.output
+    out = " ".join(res.output.split())
+    assert "lateral coupler components up to 0.0 kN inward (draft), 0.0 kN outward" in out
+    assert "-0.0" not in out

@@ -103,11 +103,14 @@ def simulate_shown(sc, quiet: bool = False, source=None, step_source=None,
     print the estimate of a run over :data:`~ltdsim.engine.run.ANNOUNCE_TIME`; warn about
     a step near the largest stable one, compile or load its kernel ("compiling (first
     run only)"), then a progress bar of simulated seconds on stderr (plain lines in a
-    log, with the time left)."""
+    log, with the time left). A curving pass that fails after the run is one warning
+    line, and the run is returned without its indicators."""
     from ltdsim.engine.preflight import check, warning
     from ltdsim.engine.run import ANNOUNCE_TIME, TIME_LIMIT, check_memory, check_time
+    import warnings
+
     from ltdsim.engine.warmup import scenario_kernels, warm_up
-    from ltdsim.results.simulate import simulate
+    from ltdsim.results.simulate import CURVING_FAILED, simulate
 
     where = None if source is None else str(source)
     lim = check(sc, step_source or where)
@@ -124,7 +127,14 @@ def simulate_shown(sc, quiet: bool = False, source=None, step_source=None,
         update = show.bar(f"simulating {scenario_label(sc)}", sc.solver.n_steps * sc.solver.dt,
                           "s simulated", "{:.1f}")
         update(0.0)
-        return simulate(sc, progress=lambda done, total: update(done), time_limit=None)
+        with warnings.catch_warnings():  # (printed below as one line of its own)
+            warnings.filterwarnings("ignore", message=CURVING_FAILED, category=RuntimeWarning)
+            ds = simulate(sc, progress=lambda done, total: update(done),
+                          time_limit=None)
+    if ds.attrs.get("curving_error"):
+        err_console.print(f"[yellow]warning:[/] {escape(ds.attrs['curving_error'])}",
+                          soft_wrap=True)
+    return ds
 
 
 def fail(exc: LtdsimError) -> None:

@@ -262,14 +262,12 @@ def curving_figure_path(plot: Path) -> Path:
 
 def _print_curving(ds) -> dict | None:
     """The worst wheel L/V, wheelset force and coupler angle of a run with [curving]."""
-    from ltdsim.results.summary import curving_summary
+    from ltdsim.results.summary import curving_summary, l_over_v_text
 
     c = curving_summary(ds)
     if c is None:
         return None
-    say(f"curving: worst wheel L/V {c['max_l_over_v']:.3f} ({100 * c['l_over_v_share_of_limit']:.0f} % "
-         f"of Nadal's {c['nadal_limit']:.3f}) at vehicle {c['l_over_v_vehicle']}, "
-         f"{c['l_over_v_time_s']:.1f} s, chainage {c['l_over_v_position_m']:.0f} m; "
+    say(f"curving: {l_over_v_text(c)}; "
          f"largest wheelset lateral force {c['max_wheelset_force_N'] / 1e3:.1f} kN "
          f"({100 * c['wheelset_force_share_of_limit']:.0f} % of Prud'homme's "
          f"{c['prudhomme_limit_N'] / 1e3:.1f} kN) at vehicle {c['wheelset_force_vehicle']}, "

@@ -24,8 +24,9 @@ from ltdsim.engine.layout import (
     T_AMAX, T_DMAX, T_EZ, T_FF, T_FMAX, T_G, T_MADH, T_MTOT, T_PMAX, T_REF, V_BAREA,
     V_BCELL, V_BCV, V_BDELAY, V_BFRIC, V_BFULL, V_BGAIN, V_BINVSHOES, V_BMU, V_BNTAB,
     V_BPFS, V_BSHOE, V_BSPRING, V_BTAB, V_BZ, V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_MASS,
-    V_P0, V_SHARE, V_WMASS, append_table,
+    V_P0, V_SHARE, V_WMASS, ABSURD_SPEED, append_table,
 )
+from ltdsim.physics.alignment import reach
 from ltdsim.physics.air.brakes import FRICTION_CONSTANT, FRICTION_KARWATZKI, FRICTION_TABLE
 from ltdsim.physics.control import METHODS
 from ltdsim.physics.drive.traction import braking_share
@@ -204,7 +205,12 @@ def lower(s: Scenario) -> Lowered:
         y0_extra += one.y0
     ny = 2 * n + nz
 
-    track_pos, track_grade, track_curv = merge_track(s.track.gradient, s.track.resistance_curve())
+    # the curve steps over the stretch the train can reach in the run: its centres now,
+    # each moving at most ABSURD_SPEED (beyond it the run stops as blown up) for t_end
+    stretch = reach(float(veh[:, V_P0].min()), float(veh[:, V_P0].max()),
+                    ABSURD_SPEED * s.solver.t_end)
+    track_pos, track_grade, track_curv = merge_track(s.track.gradient,
+                                                     s.track.resistance_curve(stretch))
     g = s.track.gravity
     m_total = veh[:, V_MASS].sum()
 

@@ -21,6 +21,20 @@ _GL_X = 0.5 * (_GL_X + 1.0)
 _GL_W = 0.5 * _GL_W
 
 
+#: m: how far beyond the stretch a run can reach the track is kept (:func:`reach`): more
+#: than any vehicle's half length and bogie spacing, and the 50 m :meth:`Alignment.pose`
+#: grids beyond the positions it is asked for
+REACH_MARGIN = 1000.0
+
+
+def reach(lo: float, hi: float, travel: float = 0.0) -> tuple[float, float]:
+    """The stretch of track, ``(from m, to m)``, a run needs whose vehicle centres lie
+    between ``lo`` and ``hi`` (m) and move at most ``travel`` (m) either way: that
+    widened by :data:`REACH_MARGIN`. The track tables are used over it only
+    (:meth:`Alignment.clipped`), so their memory follows the run, not the tables."""
+    return lo - travel - REACH_MARGIN, hi + travel + REACH_MARGIN
+
+
 @dataclass
 class Alignment:
     """Horizontal alignment with piecewise-linear curvature and cant.
@@ -40,6 +54,42 @@ class Alignment:
     @classmethod
     def from_knots(cls, s, k0, k1, h0, h1) -> Alignment:
         return cls(*(np.asarray(a, dtype=float) for a in (s, k0, k1, h0, h1)))
+
+    def clipped(self, lo: float, hi: float) -> Alignment:
+        """The alignment over ``[lo, hi]`` (m) only: the same curvature and cant at every
+        chainage in it, its end values held beyond it. Itself when every knot lies in
+        ``[lo, hi]``; otherwise the knots inside, and knots at ``lo`` and ``hi`` where they
+        cut a piece, so that a table reaching 10,000 km costs only what the stretch
+        between ``lo`` and ``hi`` costs (:meth:`step_table`, :meth:`pose`)."""
+        s = self.s
+        if s[0] >= lo and s[-1] <= hi:
+            return self
+        if not lo < hi:
+            raise ValueError(f"clipped: lo ({lo:g} m) must be below hi ({hi:g} m)")
+        a, b = max(lo, float(s[0])), min(hi, float(s[-1]))
+        if a >= b:  # [lo, hi] lies beyond one end: there the end values hold
+            k = 0 if hi <= s[0] else -1
+            kap = self.k0[0] if k == 0 else self.k1[-1]
+            h = self.h0[0] if k == 0 else self.h1[-1]
+            return Alignment.from_knots([lo, hi], [kap], [kap], [h], [h])
+        inner = s[(s > a) & (s < b)]
+        knots = np.concatenate(([a], inner, [b]))
+        mid = 0.5 * (knots[:-1] + knots[1:])
+        piece = np.clip(np.searchsorted(s, mid, side="right") - 1, 0, len(self.k0) - 1)
+
+        def on_piece(v0, v1, x):  # the value of the original piece at x
+            t = (x - s[piece]) / (s[piece + 1] - s[piece])
+            return v0[piece] + (v1[piece] - v0[piece]) * t
+
+        k0 = np.where(knots[:-1] == s[piece], self.k0[piece],
+                      on_piece(self.k0, self.k1, knots[:-1]))
+        k1 = np.where(knots[1:] == s[piece + 1], self.k1[piece],
+                      on_piece(self.k0, self.k1, knots[1:]))
+        h0 = np.where(knots[:-1] == s[piece], self.h0[piece],
+                      on_piece(self.h0, self.h1, knots[:-1]))
+        h1 = np.where(knots[1:] == s[piece + 1], self.h1[piece],
+                      on_piece(self.h0, self.h1, knots[1:]))
+        return Alignment.from_knots(knots, k0, k1, h0, h1)
 
     # ---------------------------------------------------------------- pointwise values
     def _piece(self, x):

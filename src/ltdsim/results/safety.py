@@ -50,7 +50,7 @@ from ltdsim.physics.curving import (
     wheel_l_over_v,
 )
 
-from ltdsim.physics.alignment import Alignment, alignment_of
+from ltdsim.physics.alignment import Alignment, alignment_of, reach
 
 
 @dataclass
@@ -193,6 +193,8 @@ def add_curving(ds: xr.Dataset, scenario, chunk: int = 2000) -> xr.Dataset:
     geo = TrainGeometry.of(scenario.vehicles)
     g = scenario.track.gravity
     pos = ds["position"].values
+    if np.isfinite(pos).any():  # the track over the stretch the run covered only
+        align = align.clipped(*reach(float(np.nanmin(pos)), float(np.nanmax(pos))))
     vel = ds["velocity"].values
     n = pos.shape[1]
     f = ds["coupler_force"].values if n > 1 else np.zeros((pos.shape[0], 0))
@@ -232,7 +234,8 @@ def add_curving(ds: xr.Dataset, scenario, chunk: int = 2000) -> xr.Dataset:
                                    "(buff)"})
     out["wheel_l_over_v"] = (vd, lv, {
         "units": "1", "long_name": "L/V of the flanging wheel of the worse leading wheelset "
-                                   "of the vehicle"})
+                                   "of the vehicle (inf where that wheel has no load left: "
+                                   "wheel lift, its L/V undefined)"})
     out["wheelset_lateral_force"] = (vd, hws, {
         "units": "N", "long_name": "largest lateral force of a leading wheelset of the "
                                    "vehicle on the track (magnitude)"})

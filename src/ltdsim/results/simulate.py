@@ -213,7 +213,29 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         ds.attrs["air_steps"] = rec["air_steps"][0]
         ds.attrs["air_rejected_steps"] = rec["air_steps"][1]
     if scenario.curving is not None:  # after the run, from the records (ltdsim.results.safety)
-        from ltdsim.results.safety import add_curving
-
-        ds = add_curving(ds, scenario)
+        ds = _with_curving(ds, scenario)
     return ds
+
+
+#: the start of the one line (``attrs["curving_error"]``, a RuntimeWarning) that says the
+#: curving pass after a run failed and the run is kept without its indicators
+CURVING_FAILED = "curving indicators not computed"
+
+
+def _with_curving(ds: xr.Dataset, scenario: Scenario) -> xr.Dataset:
+    """``ds`` with the curving indicators of ``scenario`` (:func:`ltdsim.results.safety.
+    add_curving`). The pass runs on a finished run, so its failure never loses the run:
+    ``ds`` comes back without the indicators, with the reason in one line as its
+    ``curving_error`` attribute and as a RuntimeWarning."""
+    import warnings
+
+    from ltdsim.results.safety import add_curving
+
+    try:
+        return add_curving(ds, scenario)
+    except Exception as exc:  # (MemoryError, ValueError, ...): whatever it is, keep the run
+        why = " ".join(f"{type(exc).__name__}: {exc}".split())
+        line = f"{CURVING_FAILED} ({why}); the run's results are kept without them"
+        ds.attrs["curving_error"] = line
+        warnings.warn(line, RuntimeWarning, stacklevel=3)
+        return ds

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import json
 
 import numpy as np
@@ -13,6 +14,10 @@ from ltdsim.results.io import scenario_of
 #: m: rating travel of an AAR M-901 draft gear of 3-1/4 in (82.55 mm), the reference
 #: against which gears without a stated travel (the study's simplified coupler) are checked
 REFERENCE_TRAVEL = 0.083
+#: m: the least deflection beyond its travel that counts a gear as beyond it (one
+#: micrometre): below it the excess is the rounding of a gear at its travel, not travel
+#: exceeded; above it a warning gives it to at least two significant figures
+TRAVEL_RESOLUTION = 1e-6
 #: rows per block in :func:`column_max` and :func:`column_min`
 _BLOCK_ROWS = 64
 
@@ -195,7 +200,8 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
         ``travel_stated`` (True if the coupler has its own ``travel``, False if the
         reference is used), ``max_draft_m`` and ``max_buff_m`` (largest deflection of one
         gear in draft and in buff, >= 0), ``max_deflection_m`` (the larger),
-        ``excess_m`` (beyond the travel, >= 0) and ``exceeds`` (bool).
+        ``excess_m`` (beyond the travel, >= 0) and ``exceeds`` (bool: an excess of
+        more than :data:`TRAVEL_RESOLUTION`).
     """
     scenario = scenario_of(ds, scenario)
     d = ds.coupler_deflection.values
@@ -216,22 +222,24 @@ def gear_travel_check(ds: xr.Dataset, scenario=None,
         "coupler": ds.coupler.values, "slack_m": 2.0 * half, "gears": gears.astype(int),
         "travel_m": travel,
         "travel_stated": stated, "max_draft_m": draft, "max_buff_m": buff,
-        "max_deflection_m": largest, "excess_m": excess, "exceeds": excess > 0.0,
+        "max_deflection_m": largest, "excess_m": excess,
+        "exceeds": excess > TRAVEL_RESOLUTION,
     }).set_index("coupler")
 
 
 def travel_warning(ds: xr.Dataset, scenario=None,
                    reference_travel: float = REFERENCE_TRAVEL) -> str | None:
     """One line naming the couplers (counted from 1, coupler 1 behind the lead vehicle)
-    whose gears deflected beyond their travel (see :func:`gear_travel_check`) and by how
-    much, mm; None when none did (or the run did not record coupler_deflection)."""
+    whose gears deflected beyond their travel by more than :data:`TRAVEL_RESOLUTION`
+    (see :func:`gear_travel_check`) and by how much, mm (two significant figures below
+    10 mm); None when none did (or the run did not record coupler_deflection)."""
     if "coupler_deflection" not in ds:
         return None
     table = gear_travel_check(ds, scenario, reference_travel)
     over = table[table.exceeds]
     if over.empty:
         return None
-    parts = [f"{j + 1} by {row.excess_m * 1e3:.0f} mm" for j, row in over.iterrows()]
+    parts = [f"{j + 1} by {_mm(row.excess_m)}" for j, row in over.iterrows()]
     stated = over.travel_stated.all()
     reference = f"{reference_travel * 1e3:.0f} mm, a real gear's travel (AAR 3-1/4 in)"
     if stated:
@@ -242,7 +250,14 @@ def travel_warning(ds: xr.Dataset, scenario=None,
         limit = f"their travel (stated, or {reference})"
     worst = over.max_deflection_m.max()
     return (f"gears deflect beyond {limit}: coupler{'s' if len(over) > 1 else ''} "
-            f"{', '.join(parts)} (largest deflection beyond the slack {worst * 1e3:.0f} mm)")
+            f"{', '.join(parts)} (largest deflection beyond the slack {_mm(worst)})")
+
+
+def _mm(x: float) -> str:
+    """A length ``x`` (m) in millimetres as a warning prints it: whole millimetres from
+    10 mm, else two significant figures (0.31 mm, never "0 mm" for a real excess)."""
+    mm = x * 1e3
+    return f"{mm:.0f} mm" if mm >= 9.5 else f"{mm:.2g} mm"
 
 
 # ------------------------------------------------------------------ fluid air brake
@@ -563,29 +578,46 @@ def curving_summary(ds: xr.Dataset) -> dict | None:
     (m, the vehicle centre), against Nadal's limit; the largest leading-wheelset lateral
     force (N) against the vehicle's Prud'homme limit; the largest coupler angle (rad)
     with its coupler number; the largest inward and outward lateral coupler components
-    (N)."""
+    (N). Where a flanging wheel unloads fully (its L/V undefined: wheel lift, beyond
+    any L/V limit) also ``wheel_lift_vehicles`` (how many vehicles lift a wheel) and
+    the first lift's ``wheel_lift_vehicle``, ``wheel_lift_time_s`` and
+    ``wheel_lift_position_m``; ``max_l_over_v`` is then the worst L/V of the wheels
+    that keep load (NaN if none does). :func:`l_over_v_text` words it."""
     if "wheel_l_over_v" not in ds:
         return None
     lv = ds.wheel_l_over_v.values
     t = ds.time.values
-    finite = np.where(np.isfinite(lv), lv, np.inf)
+    # a flanging wheel the roll moment unloads fully has no L/V (safety.py stores inf):
+    # wheel lift, reported as such; the worst L/V is that of the wheels with load
+    lifted = np.isposinf(lv)
+    finite = np.where(np.isfinite(lv), lv, -np.inf)
     k, i = np.unravel_index(int(np.argmax(finite)), lv.shape)
+    worst = float(lv[k, i]) if np.isfinite(lv[k, i]) else math.nan
     h = ds.wheelset_lateral_force.values
     ratio = h / ds.prudhomme_limit.values[None, :]
     kh, ih = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
     out = {
-        "max_l_over_v": float(lv[k, i]),
+        "max_l_over_v": worst,
         "l_over_v_vehicle": int(i) + 1,
         "l_over_v_time_s": float(t[k]),
         "l_over_v_position_m": float(ds.position.values[k, i]),
         "nadal_limit": float(ds.nadal_limit),
-        "l_over_v_share_of_limit": float(lv[k, i] / float(ds.nadal_limit)),
+        "l_over_v_share_of_limit": worst / float(ds.nadal_limit),
         "max_wheelset_force_N": float(h[kh, ih]),
         "wheelset_force_vehicle": int(ih) + 1,
         "wheelset_force_time_s": float(t[kh]),
         "prudhomme_limit_N": float(ds.prudhomme_limit.values[ih]),
         "wheelset_force_share_of_limit": float(ratio[kh, ih]),
     }
+    if lifted.any():  # the first record with a lift, its first vehicle
+        kl = int(np.argmax(lifted.any(axis=1)))
+        il = int(np.argmax(lifted[kl]))
+        out.update({
+            "wheel_lift_vehicles": int(lifted.any(axis=0).sum()),
+            "wheel_lift_vehicle": il + 1,
+            "wheel_lift_time_s": float(t[kl]),
+            "wheel_lift_position_m": float(ds.position.values[kl, il]),
+        })
     if ds.sizes.get("coupler", 0):
         a = ds.coupler_angle.values
         ka, ja = np.unravel_index(int(np.argmax(a)), a.shape)
@@ -594,14 +626,36 @@ def curving_summary(ds: xr.Dataset) -> dict | None:
             "max_coupler_angle_rad": float(a[ka, ja]),
             "coupler_angle_coupler": int(ja) + 1,
             "coupler_angle_time_s": float(t[ka]),
-            "max_inward_coupler_force_N": float(max(lat.max(), 0.0)),
-            "max_outward_coupler_force_N": float(max(-lat.min(), 0.0)),
+            # (abs: a signed zero of the records would print as "-0.0 kN")
+            "max_inward_coupler_force_N": abs(float(max(lat.max(), 0.0))),
+            "max_outward_coupler_force_N": abs(float(max(-lat.min(), 0.0))),
         })
         lim = json.loads(ds.attrs.get("scenario_json", "{}")).get("curving") or {}
         stop = lim.get("coupler_angle_limit")
         if stop:
             out["couplers_at_stops"] = int((a >= stop).any(axis=0).sum())
     return out
+
+
+def l_over_v_text(c: dict) -> str:
+    """The worst wheel L/V of a :func:`curving_summary` ``c`` in words, with its place:
+    "worst wheel L/V 0.812 (72 % of Nadal's 1.128) at vehicle 3, 4.5 s, chainage 120 m",
+    or where a wheel lifts "wheel lift: ..." first (an L/V there is undefined, not
+    infinite), then the worst L/V of the wheels that keep load."""
+    place = (f"at vehicle {c['l_over_v_vehicle']}, {c['l_over_v_time_s']:.1f} s, "
+             f"chainage {c['l_over_v_position_m']:.0f} m")
+    worst = (f"{c['max_l_over_v']:.3f} ({100 * c['l_over_v_share_of_limit']:.0f} % of "
+             f"Nadal's {c['nadal_limit']:.3f}) {place}")
+    if "wheel_lift_vehicle" not in c:
+        return f"worst wheel L/V {worst}"
+    n = c["wheel_lift_vehicles"]
+    lift = (f"wheel lift: the flanging wheel of vehicle {c['wheel_lift_vehicle']} unloads "
+            f"fully at {c['wheel_lift_time_s']:.1f} s, chainage "
+            f"{c['wheel_lift_position_m']:.0f} m (L/V undefined, beyond Nadal's limit "
+            f"{c['nadal_limit']:.3f}; {n} vehicle{'s' if n > 1 else ''} lift a wheel)")
+    if not math.isfinite(c["max_l_over_v"]):
+        return lift
+    return f"{lift}; worst L/V of the loaded wheels {worst}"
 
 
 #: J per kWh

@@ -28,6 +28,13 @@ MAX_LENGTH = 100.0  # m, one vehicle
 MAX_VEHICLES = 20_000
 
 
+#: m: the largest distance from chainage 0 a position of a track table may lie
+#: (docs/scenario.md, "Positions along the line"): 10,000 km, longer than any railway
+#: line (the Trans-Siberian is 9,289 km). A position beyond it (1e300 m, say) is no place
+#: on a line, and its differences lose every metre to rounding.
+MAX_CHAINAGE = 1.0e7
+
+
 class _Strict(BaseModel):
     # strict types: a number must be a TOML number (integer or float; never a string or a
     # boolean), an integer a TOML integer, a flag a TOML boolean, a name a string, so that
@@ -62,6 +69,15 @@ def _check_table(points: Points, what: str, ok, allowed: str) -> Points:
     if bad:
         raise ValueError(f"the second column must be {allowed}, got {bad}")
     return points
+
+
+def _check_chainages(xs, what: str) -> None:
+    """Refuse a position of a track table (``what``: the column, "start positions, m")
+    farther than :data:`MAX_CHAINAGE` from chainage 0, in one line naming the range."""
+    bad = [x for x in xs if not abs(x) <= MAX_CHAINAGE]
+    if bad:
+        raise ValueError(f"the first column ({what}) must lie within +-{MAX_CHAINAGE:g} m "
+                         f"of chainage 0 ({MAX_CHAINAGE / 1e3:,.0f} km), got {bad[0]:g} m")
 
 
 def _show(value: float, unit: str) -> str:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 
 from ltdsim.errors import ScenarioError
+from ltdsim.scenario._base import MAX_CHAINAGE
 
 from ltdsim.scenario.model import Scenario
 from ltdsim.scenario.unused import first_of_each, no_effect, written
@@ -84,6 +85,11 @@ def read_profile(path: str | Path, source: str) -> list[list[float]]:
             raise ScenarioError(source, [(key, f"{path} line {k}: {len(vals)} columns, "
                                                "expected 3 (chainage m, curvature 1/m, "
                                                "cant m)")])
+        if not abs(vals[0]) <= MAX_CHAINAGE:
+            raise ScenarioError(source, [(key, f"{path} line {k}: the chainage must lie "
+                                               f"within +-{MAX_CHAINAGE:g} m of chainage 0 "
+                                               f"({MAX_CHAINAGE / 1e3:,.0f} km), got "
+                                               f"{vals[0]:g} m")])
         rows.append(vals)
     if not rows:
         raise ScenarioError(source, [(key, f"{path}: no data rows")])

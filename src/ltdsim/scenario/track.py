@@ -12,7 +12,7 @@ from pydantic import (
 )
 
 
-from ltdsim.scenario._base import Points, Triple, _Strict, _check_table
+from ltdsim.scenario._base import MAX_CHAINAGE, Points, Triple, _Strict, _check_chainages, _check_table
 
 
 class Track(_Strict):
@@ -21,24 +21,28 @@ class Track(_Strict):
     gradient: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                              description="[start position m, grade -] pieces, grade = rise/run, "
                                          "+ uphill in the direction of travel; starts strictly "
-                                         "increasing, grades in [-0.1, 0.1]; the first piece "
-                                         "also covers everything before it")
+                                         f"increasing, within +-{MAX_CHAINAGE:g} m, grades "
+                                         "in [-0.1, 0.1]; the first piece also covers "
+                                         "everything before it")
     curve: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                           description="[start position m, radius m] pieces; starts strictly "
-                                      "increasing, radius 0 (straight) or 20 to 1e6, + "
-                                      "turning left, - turning right (the side matters to "
-                                      "the curving indicators only)")
+                                      f"increasing, within +-{MAX_CHAINAGE:g} m, radius "
+                                      "0 (straight) or 20 to 1e6, + turning left, - "
+                                      "turning right (the side matters to the curving "
+                                      "indicators only)")
     transitions: Points = Field([], description="[position m, length m] clothoids: the "
                                                 "curvature step of `curve` at that position "
                                                 "becomes a ramp, linear in distance, from "
                                                 "there over the length (each position a "
                                                 "break of `curve`; the ramp ends before the "
-                                                "next break)")
+                                                "next break), positions within "
+                                                f"+-{MAX_CHAINAGE:g} m")
     cant: Points = Field(default_factory=lambda: [(0.0, 0.0)],
                          description="[position m, cant m] height of the outer rail over the "
                                      "inner, linear between the points and constant beyond "
-                                     "them, 0 to 0.2 m; it leans towards the centre of the "
-                                     "curve at each place")
+                                     "them, 0 to 0.2 m, positions within "
+                                     f"+-{MAX_CHAINAGE:g} m; it leans towards the "
+                                     "centre of the curve at each place")
     profile_file: str | None = Field(None, description="CSV of chainage m, curvature 1/m "
                                                        "(+ left), cant m, one point a line, "
                                                        "linear between points; replaces "
@@ -46,7 +50,8 @@ class Track(_Strict):
                                                        "relative to the scenario file)")
     profile: list[Triple] = Field([], description="[chainage m, curvature 1/m, cant m] "
                                                   "points as profile_file gives them (filled "
-                                                  "from it at load time)")
+                                                  "from it at load time), chainages "
+                                                  f"within +-{MAX_CHAINAGE:g} m")
     rail_spacing: float = Field(1.5, ge=0.9, le=2.0,
                                 description="distance between the wheel-rail contact points "
                                             "of a wheelset (1.5 for standard gauge), m")
@@ -59,23 +64,33 @@ class Track(_Strict):
     @field_validator("gradient")
     @classmethod
     def _grades(cls, v):
+        _check_chainages([p[0] for p in v], "start positions, m")
         return _check_table(v, "start positions, m", lambda g: abs(g) <= 0.1, "in [-0.1, 0.1] (rise/run)")
 
     @field_validator("curve")
     @classmethod
     def _curves(cls, v):
+        _check_chainages([p[0] for p in v], "start positions, m")
         return _check_table(v, "start positions, m", lambda r: r == 0.0 or 20.0 <= abs(r) <= 1e6,
                             "0 (straight) or radii of 20-1e6 m")
 
     @field_validator("cant")
     @classmethod
     def _cants(cls, v):
+        _check_chainages([p[0] for p in v], "positions, m")
         return _check_table(v, "positions, m", lambda h: 0.0 <= h <= 0.2, "in [0, 0.2] m")
+
+    @field_validator("transitions")
+    @classmethod
+    def _transitions(cls, v):
+        _check_chainages([p[0] for p in v], "positions, m")
+        return v
 
     @field_validator("profile")
     @classmethod
     def _profile(cls, v):
         xs = [p[0] for p in v]
+        _check_chainages(xs, "chainages, m")
         if any(b <= a for a, b in zip(xs, xs[1:])):
             raise ValueError("chainages must be strictly increasing")
         bad = [p[1] for p in v if abs(p[1]) > 0.05]
@@ -115,16 +130,22 @@ class Track(_Strict):
                              "leave those out")
         return self
 
-    def resistance_curve(self) -> Points:
+    def resistance_curve(self, reach: tuple[float, float] | None = None) -> Points:
         """The ``curve`` table the kernel's curve resistance reads: ``curve`` itself when
         the alignment has no transitions or profile, otherwise the alignment's curvature
         averaged over steps of at most 5 m (the ramps keep their integral of curvature,
-        so the curve resistance summed over them is that of the alignment), m and m."""
+        so the curve resistance summed over them is that of the alignment), m and m;
+        with ``reach`` (from m, to m) the steps cover that stretch only (the alignment's
+        values beyond it are its values at its ends), so that a profile reaching
+        10,000 km costs only the steps the run can reach."""
         if not self.transitions and not self.profile:
             return self.curve
         from ltdsim.physics.alignment import alignment_of
 
-        return alignment_of(self).step_table(5.0)
+        align = alignment_of(self)
+        if reach is not None:
+            align = align.clipped(*reach)
+        return align.step_table(5.0)
 
 
 class Curving(_Strict):

@@ -374,7 +374,11 @@ def curving_figure(ds: xr.Dataset, summary: dict | None = None):
     ax.set_xlabel("time [s]")
     ax.set_ylabel("lateral component [kN]\n(+ inward, - outward)")
     ax.set_title("lateral coupler force of the three most angled couplers")
-    if summary:
+    if summary and "wheel_lift_vehicle" in summary:  # (an L/V there is undefined)
+        fig.suptitle(f"wheel lift at vehicle {summary['wheel_lift_vehicle']}, "
+                     f"{summary['wheel_lift_time_s']:.1f} s, chainage "
+                     f"{summary['wheel_lift_position_m']:.0f} m (L/V undefined, shown red)")
+    elif summary:
         fig.suptitle(f"worst L/V {summary['max_l_over_v']:.2f} at vehicle "
                      f"{summary['l_over_v_vehicle']}, {summary['l_over_v_time_s']:.1f} s, "
                      f"chainage {summary['l_over_v_position_m']:.0f} m")

@@ -4,6 +4,7 @@ couplers and, for a run with ``[curving]``, the curving-safety section."""
 from __future__ import annotations
 
 import html
+import math
 from pathlib import Path
 
 import numpy as np
@@ -21,28 +22,55 @@ from ltdsim.study.report.html import (
 
 def worst_vehicles(ds, count: int = 15) -> pd.DataFrame:
     """The ``count`` vehicles of a run with curving indicators whose wheel L/V came
-    closest to Nadal's limit: vehicle number (1 = lead), name, worst L/V (-), its time
-    (s) and chainage (m), the worst wheelset force (kN) and its share of Prud'homme's
+    closest to Nadal's limit, those that lift a wheel (their L/V undefined there) first:
+    vehicle number (1 = lead), name, worst L/V of the loaded wheels (-, NaN if none),
+    whether a wheel lifts, the time (s) and chainage (m) of the first lift or else of
+    the worst L/V, the worst wheelset force (kN) and its share of Prud'homme's
     limit (%), the largest buff force in the vehicle's couplers (kN)."""
-    lv = np.where(np.isfinite(ds.wheel_l_over_v.values), ds.wheel_l_over_v.values, np.inf)
+    raw = ds.wheel_l_over_v.values
+    lifted = np.isposinf(raw)  # a flanging wheel unloaded fully: no L/V, wheel lift
+    lv = np.where(np.isfinite(raw), raw, -np.inf)
     h = ds.wheelset_lateral_force.values
     prud = ds.prudhomme_limit.values
     f = ds.coupler_force.values if ds.sizes.get("coupler", 0) else np.zeros((lv.shape[0], 0))
     n = lv.shape[1]
     k = np.argmax(lv, axis=0)
-    order = np.argsort(-lv[k, np.arange(n)], kind="stable")[:count]
+    lift = lifted.any(axis=0)
+    first = np.argmax(lifted, axis=0)
+    # the vehicles that lift a wheel first (earliest first), then by their worst L/V
+    order = np.lexsort((-lv[k, np.arange(n)], np.where(lift, first, lv.shape[0]),
+                        ~lift))[:count]
     rows = []
     for i in order:
         ends = [j for j in (i - 1, i) if 0 <= j < f.shape[1]]
         buff = max([-f[:, j].min() for j in ends] + [0.0])
+        worst = float(lv[k[i], i]) if np.isfinite(lv[k[i], i]) else math.nan
+        at = first[i] if lift[i] else k[i]
         rows.append({"vehicle": int(i) + 1, "name": str(ds.vehicle_name.values[i]),
-                     "max L/V [-]": float(lv[k[i], i]),
-                     "at [s]": float(ds.time.values[k[i]]),
-                     "chainage [m]": float(ds.position.values[k[i], i]),
+                     "max L/V [-]": worst,
+                     "wheel lift": "yes" if lift[i] else "",
+                     "at [s]": float(ds.time.values[at]),
+                     "chainage [m]": float(ds.position.values[at, i]),
                      "max wheelset force [kN]": float(h[:, i].max()) / 1e3,
                      "of Prud'homme [%]": 100.0 * float(h[:, i].max()) / float(prud[i]),
                      "max buff at its ends [kN]": buff / 1e3})
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    # (the column only where a wheel lifts)
+    return table if lift.any() else table.drop(columns="wheel lift")
+
+
+def lift_html(c: dict) -> str:
+    """The sentence on wheel lift of a :func:`~ltdsim.results.summary.curving_summary`
+    ``c`` (a flanging wheel unloaded fully: its L/V is undefined, not infinite), or ""
+    where no wheel lifts."""
+    if "wheel_lift_vehicle" not in c:
+        return ""
+    n = c["wheel_lift_vehicles"]
+    return (f"<b>Wheel lift:</b> the flanging wheel of vehicle {c['wheel_lift_vehicle']} "
+            f"unloads fully at {c['wheel_lift_time_s']:.1f} s, chainage "
+            f"{c['wheel_lift_position_m']:.0f} m; its L/V is undefined there, beyond "
+            f"Nadal's limit ({c['nadal_limit']:.3f}) and any other. {n} "
+            f"vehicle{'s lift' if n > 1 else ' lifts'} a wheel in the run. ")
 
 
 def curving_section(ds, out: Path, figure: Path | None = None) -> str:
@@ -63,10 +91,14 @@ def curving_section(ds, out: Path, figure: Path | None = None) -> str:
         "in lateral and yaw balance by its bogies against the lateral components of its "
         "coupler forces and the unbalanced centrifugal force; the leading wheelset's share "
         "of a bogie's force taken by the flanging wheel.</p>",
-        f"<p>The worst wheel L/V is <b>{c['max_l_over_v']:.3f}</b>, "
-        f"{100 * c['l_over_v_share_of_limit']:.0f} % of Nadal's limit "
-        f"({c['nadal_limit']:.3f}), at vehicle {c['l_over_v_vehicle']} at "
-        f"{c['l_over_v_time_s']:.1f} s, chainage {c['l_over_v_position_m']:.0f} m. The "
+        "<p>" + lift_html(c)
+        + (f"The worst wheel L/V{' of the loaded wheels' if 'wheel_lift_vehicle' in c else ''}"
+           f" is <b>{c['max_l_over_v']:.3f}</b>, "
+           f"{100 * c['l_over_v_share_of_limit']:.0f} % of Nadal's limit "
+           f"({c['nadal_limit']:.3f}), at vehicle {c['l_over_v_vehicle']} at "
+           f"{c['l_over_v_time_s']:.1f} s, chainage {c['l_over_v_position_m']:.0f} m. "
+           if c["max_l_over_v"] == c["max_l_over_v"] else "")
+        + "The "
         f"largest leading-wheelset lateral force is "
         f"{c['max_wheelset_force_N'] / 1e3:.1f} kN, "
         f"{100 * c['wheelset_force_share_of_limit']:.0f} % of that vehicle's Prud'homme "
