@@ -349,3 +349,18 @@ def test_presets_ship_and_bad_keys_are_refused():
         for line in text.splitlines():
             if "=" in line and not line.lstrip().startswith("#") and "family" not in line:
                 assert "#" in line, line
+
+
+@pytest.mark.parametrize("value", [True, "3.8 bar", None])
+def test_a_valve_row_from_python_refuses_a_flag_or_text_where_a_number_belongs(value):
+    """The row builders called directly (not through the schema) refuse what is not a
+    number: ``float(True)`` would be a 1 Pa threshold."""
+    import copy
+
+    from ltdsim.data import load_preset
+    from ltdsim.physics.air.brakevalves import control_valve_row
+
+    cv = copy.deepcopy(load_preset("brakes", "uic-g")["control_valve"])
+    cv["threshold"] = value
+    with pytest.raises(ValueError, match=r"threshold: expected a number"):
+        control_valve_row(cv)

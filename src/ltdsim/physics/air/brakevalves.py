@@ -481,9 +481,12 @@ def _row(table: dict, names: tuple, orifices: dict, positive: tuple, what: str,
     for key, val in table.items():
         if key == "discharge_coefficient":
             continue
-        if isinstance(val, str):
+        numeric = (key in names or key in orifices) and key != "family"
+        if isinstance(val, str) and not numeric:  # (a word: the valve's family)
             values[key] = val
             continue
+        if isinstance(val, (bool, str)):  # (float(True) is 1: no pressure or size)
+            raise ValueError(f"{what}.{key}: expected a number, got {val!r}")
         try:
             val = float(val)
         except (TypeError, ValueError):
