@@ -325,7 +325,12 @@ def plausible_change(draw, tree: dict) -> str:
             ["position", "velocity", "coupler_force", "brake_force", "motor_torque",
              "brake_pipe_pressure"]), max_size=3, unique=True), label="record")
     elif what == "unstable":
-        tree["solver"].update(stability_check=False, dt=0.01, output_interval=0.01)
+        # a step its method cannot keep stable, run anyway: a clean SimulationError
+        tree["solver"].update(stability_check=False, dt=0.01, output_interval=0.01,
+                              method=draw(st.sampled_from(["euler", "ode3"])))
+        if draw(st.booleans(), label="stiff"):
+            tree["couplers"] = {"default": {"model": "linear", "slack": 0.0,
+                                            "stiffness": 1e9, "damping": 0.0}}
         pid = tree["driver"].get("pid")
         if pid is not None:
             pid["ts"] = 0.01
