@@ -46,7 +46,8 @@ def recording_bytes(scenario: Scenario) -> int:
     recorded values per sample x 8 bytes: position, velocity and acceleration per
     vehicle, deflection and force per coupler, 6 train signals, brake force and cylinder
     per braked vehicle, force per locomotive consist), the variables the result adds
-    (relative position and velocity per vehicle, speed error, time), and the kernel's
+    (relative position and velocity per vehicle, speed error, time; with ``[curving]``
+    the coupler angles and lateral forces, L/V and wheelset forces), and the kernel's
     state and work arrays (an upper bound). Computed from the scenario alone, without
     allocating anything."""
     sv = scenario.solver
@@ -65,7 +66,10 @@ def recording_bytes(scenario: Scenario) -> int:
                   + (nk if nk > 1 and "c" in keep else 0)
                   + n * (("x" in keep) + ("v" in keep)) + 2
                   + (2 * nd * N_DRIVE_SIGNALS if "m" in keep else 0)
-                  + (2 * (N_ENERGY + nc + 1) if "e" in keep else 0))
+                  + (2 * (N_ENERGY + nc + 1) if "e" in keep else 0)
+                  # [curving]'s series the result adds (ltdsim.results.safety.add_curving):
+                  # angle and lateral force per coupler, L/V and wheelset force per vehicle
+                  + (2 * nc + 2 * n if scenario.curving is not None else 0))
     ny = 2 * n + nc + nb  # positions, speeds, a force state per coupler, brake fills
     if sv.energy and sv.adaptive:  # (bs23 integrates the energy terms as states)
         ny += N_ENERGY + nc
@@ -80,7 +84,8 @@ def recording_bytes(scenario: Scenario) -> int:
     air_steps = sv.adaptive and scenario.brake.model == "fluid"
     ny += nd * N_DRIVE_STATES
     work = (kernel.work_size(n, ny, stages, nk, cells, air_steps, nd, sv.energy)
-            + 4 * ny + 4 * nc + n + 2 + nk)
+            + 4 * ny + 4 * nc + n + 2 + nk
+            + (n + 1 if scenario.curving is not None else 0))  # (curving's limits)
     return 8 * (n_samples * per_sample + work)
 
 
