@@ -142,3 +142,13 @@ def test_a_sweep_with_a_case_beyond_the_limit_is_refused_before_any_case_runs(tm
     assert f"case {spec.cases[1].id}: solver.dt, solver.t_end: the case would take about" in text
     assert "give --max-time SECONDS (0: no limit)" in text
     assert not (out / "cases").exists() or not any((out / "cases").iterdir())
+
+
+def test_a_study_with_a_case_beyond_the_limit_is_refused_before_it_starts(tmp_path):
+    from conftest import short_paper
+
+    out = tmp_path / "report"
+    text = cli_refused("study", short_paper(tmp_path), "--output", out, "--set",
+                       "solver.dt=1e-9", "--no-reduction", "--workers", "1")
+    assert "the case would take about" in text and "ltdsim sweep FILE --max-time" in text
+    assert not (out / "index.html").exists()

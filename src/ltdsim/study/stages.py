@@ -417,8 +417,8 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     ...)"; logged as a warning without it). A stage that is reused says so.
     """
     from ltdsim.engine.preflight import check
-    from ltdsim.engine.run import check_memory
-    from ltdsim.sweep.core import check_sweep_memory
+    from ltdsim.engine.run import TIME_LIMIT, check_memory, check_time
+    from ltdsim.sweep.core import check_sweep_memory, check_sweep_time
 
     out = Path(out)
     scenario_path = Path(scenario_path)
@@ -440,6 +440,12 @@ def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: st
     check_sweep_memory(spec, str(scenario_path), workers)
     check(base_case, "--set" if overrides else f"{scenario_path} case {case}")
     check_memory(base_case, source=f"{scenario_path} case {case}")
+    # a case estimated beyond the limit of one run (ltdsim.engine.run.TIME_LIMIT) is
+    # refused before the study starts: the study has no option to raise it
+    anyway = ("run the cases with `ltdsim sweep FILE --max-time SECONDS` and the base case "
+              "with `ltdsim run FILE --case CASE --max-time SECONDS`")
+    check_sweep_time(spec, str(scenario_path), TIME_LIMIT, anyway)
+    check_time(base_case, TIME_LIMIT, f"{scenario_path} case {case}", anyway)
     settings = study_settings(scenario_path, case, overrides, reduction, reduction_maxiter)
     _check_output(out, settings, force, notice)
     out.mkdir(parents=True, exist_ok=True)
