@@ -109,6 +109,7 @@ def run(
     _print_energy(ds, sc)
     brake = _print_fluid_brake(ds)
     curving = _print_curving(ds)
+    _print_strength(ds, sc)
     warning = travel_warning(ds, sc)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}")
@@ -247,6 +248,19 @@ def _print_energy(ds, sc) -> None:
              f"({e['gross_tonnes']:,.0f} t); dynamic braking took back "
              f"{kwh(e['dynamic_brake_energy'])} kWh at the rail (what regeneration can "
              "recover before the drive's losses)")
+
+
+def _print_strength(ds, sc) -> None:
+    """The couplers whose force went over their proof or ultimate load, the most severe
+    first (ltdsim.results.strength); nothing when no coupler has a strength or none went
+    over. Gears closed solid are the travel warning's."""
+    from ltdsim.results.strength import event_lines, stored_events, strength_events
+
+    table = stored_events(ds)
+    if table is None:
+        table = strength_events(ds, sc)
+    for line in event_lines(table):
+        console.print(escape(line), highlight=False, soft_wrap=True)
 
 
 def _fluid(sc) -> bool:

@@ -214,6 +214,10 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         ds.attrs["air_rejected_steps"] = rec["air_steps"][1]
     if scenario.curving is not None:  # after the run, from the records (ltdsim.results.safety)
         ds = _with_curving(ds, scenario)
+    if ds.sizes.get("coupler", 0):  # a saved result carries them (ltdsim.results.strength)
+        from ltdsim.results.strength import ATTR, events_json, strength_events
+
+        ds.attrs[ATTR] = events_json(strength_events(ds, scenario))
     return ds
 
 

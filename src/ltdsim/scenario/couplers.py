@@ -17,6 +17,7 @@ from pydantic import (
     Tag,
     TypeAdapter,
     create_model,
+    field_validator,
     model_validator,
 )
 
@@ -50,6 +51,58 @@ class STable(_Strict):
         if any(not 0.0 <= v <= 10.0 for r in self.values for v in r):
             raise ValueError("S values must lie in [0, 10]")
         return self
+
+
+def strength_grades() -> tuple[str, ...]:
+    """Names of the shipped coupler strength grades (``strength = NAME`` in a coupler:
+    ``ltdsim/data/strength``, docs/strength.md)."""
+    return preset_names("strength")
+
+
+#: the limits of a strength grade, N: proof (no permanent deformation above it, the
+#: coupling yields) and ultimate (it breaks), in draft (tension) and buff (compression)
+STRENGTH_KEYS = ("draft_proof", "draft_ultimate", "buff_proof", "buff_ultimate")
+
+
+class CouplerStrength(_Strict):
+    """Proof and ultimate loads of a coupling (docs/strength.md), N: any of the four,
+    at least one. A grade of ``ltdsim/data/strength`` or a table given inline."""
+
+    draft_proof: float | None = Field(None, gt=0.0, le=1e9,
+                                      description="proof (yield) load in draft, N")
+    draft_ultimate: float | None = Field(None, gt=0.0, le=1e9,
+                                         description="ultimate (breaking) load in draft, N")
+    buff_proof: float | None = Field(None, gt=0.0, le=1e9,
+                                     description="proof (yield) load in buff, N")
+    buff_ultimate: float | None = Field(None, gt=0.0, le=1e9,
+                                        description="ultimate (breaking) load in buff, N")
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if all(getattr(self, k) is None for k in STRENGTH_KEYS):
+            raise ValueError(f"a strength table needs at least one of {', '.join(STRENGTH_KEYS)}")
+        for way in ("draft", "buff"):
+            proof, ultimate = getattr(self, f"{way}_proof"), getattr(self, f"{way}_ultimate")
+            if proof is not None and ultimate is not None and proof > ultimate:
+                raise ValueError(f"{way}_proof ({proof:g} N) is above {way}_ultimate "
+                                 f"({ultimate:g} N): a coupling yields before it breaks")
+        return self
+
+
+def strength_limits(strength: "str | CouplerStrength | None") -> CouplerStrength | None:
+    """The limits of a coupler's ``strength`` key: a grade's (by name) or the inline
+    table; None without one."""
+    if strength is None or isinstance(strength, CouplerStrength):
+        return strength
+    grade = load_preset("strength", strength)
+    return CouplerStrength(**{k: float(grade[k]) for k in STRENGTH_KEYS if k in grade})
+
+
+#: a coupler's ``strength``: a grade's name or an inline table (told apart by type, so a
+#: mistake is reported once, against the form given)
+StrengthKey = Annotated[
+    Union[Annotated[str, Tag("grade")], Annotated[CouplerStrength, Tag("table")]],
+    Discriminator(lambda v: "grade" if isinstance(v, str) else "table")]
 
 
 #: the model a coupler without a ``model`` key (and without a preset naming one) takes
@@ -86,6 +139,22 @@ class _CouplerBase(_Strict):
     solid_stiffness: float = Field(1.0e9, gt=0.0, le=1e12,
                                    description="stiffness of the gear closed solid, beyond "
                                                "travel, N/m")
+    # the coupling's strength (its coupler, knuckle, draw hook; not its gear's): a run
+    # lists when a coupler's force first went over its proof and ultimate loads
+    # (ltdsim.results.strength); the forces themselves do not depend on it
+    strength: StrengthKey | None = Field(
+        None, description="strength grade of the coupling (docs/strength.md: aar-e, "
+                          "aar-e-body, en15566-1000, en15566-1200, en15566-1500, uic-850) "
+                          "or a table of draft_proof, draft_ultimate, buff_proof, "
+                          "buff_ultimate, N; none: no strength events")
+
+    @field_validator("strength")
+    @classmethod
+    def _known_grade(cls, v):
+        if isinstance(v, str) and v not in strength_grades():
+            raise ValueError(f"unknown coupler strength grade {v!r}; available: "
+                             f"{', '.join(strength_grades()) or 'none'}")
+        return v
 
     @model_validator(mode="after")
     def _complete(self):
@@ -438,8 +507,9 @@ class Couplers(_Strict):
     shares (:data:`SHARED_COUPLER_KEYS`: slack, gears, travel, solid stiffness) and takes the
     new model's own keys from itself, so the default's keys of its own model never
     reach a coupler of another model. An override that names a ``preset`` describes
-    another gear: it keeps only the default's ``slack`` and ``gears`` (the coupling's free
-    play and how many gears it holds, not the gear's own keys) and takes every other key
+    another gear: it keeps only the default's ``slack``, ``gears`` and ``strength`` (the
+    coupling's free play, how many gears it holds and its coupler's strength, not the
+    gear's own keys) and takes every other key
     from itself and its preset. An override's S replaces the default's S_table, its
     S_table the default's S (:data:`ALTERNATIVE_KEYS`; a preset's likewise).
     """

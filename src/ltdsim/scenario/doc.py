@@ -260,6 +260,8 @@ def _describe_type(tp, meta) -> tuple[str, str]:
         return f"array of {head}s{sep}{tail}", allowed
     if origin is dict:
         return "table", "any keys"
+    if isinstance(bare, type) and issubclass(bare, BaseModel):  # a table among other forms
+        return "table", "keys " + ", ".join(f"`{k}`" for k in bare.model_fields)
     if typing.get_origin(bare) in (Union, types.UnionType):
         kinds, alloweds = zip(*(_describe_type(m, []) for m in _members(bare)))
         return " or ".join(dict.fromkeys(kinds)), " or ".join(alloweds)

@@ -279,8 +279,9 @@ class Scenario(_Strict):
         for o in overrides:
             changed = o.model_dump(exclude_none=True, exclude={"index"})
             if "preset" in changed:  # another gear: only the coupling's own keys (its
-                # slack and how many gears it holds) carry over
-                params = {"slack": params["slack"], "gears": params["gears"]}
+                # slack, how many gears it holds and its coupler's strength) carry over
+                params = {"slack": params["slack"], "gears": params["gears"],
+                          "strength": params["strength"]}
             elif changed.get("model", params["model"]) != params["model"]:
                 # another model: the keys every model shares carry over, not the old
                 # model's own
