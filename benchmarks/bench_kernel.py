@@ -120,14 +120,15 @@ def _against_reference(sc, rounds: int) -> dict:
 
 
 def _paired(first, second, rounds: int, what: str) -> dict:
-    """CPU and wall seconds of ``simulate(first)`` and ``simulate(second)``: a warm-up of
-    both, then ``rounds`` interleaved rounds (the order alternating), each run after a
-    garbage collection and with the collector off while it runs; each round's ratio
-    second / first of CPU time (``times["round ratios"]``)."""
+    """CPU, wall and user-CPU seconds of ``simulate(first)`` and ``simulate(second)``: a
+    warm-up of both, then ``rounds`` interleaved rounds (the order alternating), each run
+    after a garbage collection and with the collector off while it runs; each round's
+    ratio second / first of CPU time (``times["round ratios"]``) and of user CPU time
+    (``times["round ratios, user"]``)."""
     ltdsim.simulate(first)
     ltdsim.simulate(second)
     runs = {"first": first, "second": second}
-    times = {k: {"cpu": [], "wall": []} for k in runs}
+    times = {k: {"cpu": [], "wall": [], "user": []} for k in runs}
     for r in range(rounds):
         for name in (("first", "second") if r % 2 == 0 else ("second", "first")):
             # each run starts from the same state: the previous run's result collected
@@ -135,16 +136,21 @@ def _paired(first, second, rounds: int, what: str) -> dict:
             gc.collect()
             gc.disable()
             try:
+                u0 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
                 c0, w0 = _clocks()
                 ltdsim.simulate(runs[name])
                 c1, w1 = _clocks()
+                u1 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
             finally:
                 gc.enable()
             times[name]["cpu"].append(c1 - c0)
             times[name]["wall"].append(w1 - w0)
+            times[name]["user"].append(u1 - u0)
         print(f"{what} round {r + 1}/{rounds} done", file=sys.stderr, flush=True)
     times["round ratios"] = [a / b for a, b in zip(times["second"]["cpu"],
                                                    times["first"]["cpu"])]
+    times["round ratios, user"] = [a / b for a, b in zip(times["second"]["user"],
+                                                         times["first"]["user"])]
     return times
 
 
@@ -158,7 +164,12 @@ def _paired_rows(times: dict, first: str, second: str, target: str) -> list:
             (f"{second}, CPU s (wall s)", f"{c2:.3f} ({w2:.3f})"),
             (f"ratio, CPU, median of the {n} rounds' ratios ({target})",
              f"{statistics.median(times['round ratios']):.3f}"),
-            ("ratio, CPU, of the medians", f"{c2 / c1:.3f}")]
+            ("ratio, CPU, of the medians", f"{c2 / c1:.3f}"),
+            # (the kernel's own time: on this machine the system time of a run jumps
+            # by 0.1-0.3 s from one run to the next with the same page faults, a cost of
+            # the host's memory management, not of the code; user time leaves it out)
+            (f"ratio, user CPU, median of the {n} rounds' ratios ({target})",
+             f"{statistics.median(times['round ratios, user']):.3f}")]
 
 
 _CHILD = r"""
@@ -167,19 +178,22 @@ import ltdsim
 sc = ltdsim.load_scenario(sys.argv[1], case="LHHL")
 ltdsim.simulate(sc.with_overrides({"solver.t_end": 0.01}))  # compile or load
 ltdsim.simulate(sc)  # warm (fresh output memory)
-cpu = []
+import resource
+cpu, user = [], []
 for _ in range(int(sys.argv[2])):
+    u0 = resource.getrusage(resource.RUSAGE_SELF).ru_utime
     c0 = time.process_time()
     ltdsim.simulate(sc)
     cpu.append(time.process_time() - c0)
-print(json.dumps(cpu))
+    user.append(resource.getrusage(resource.RUSAGE_SELF).ru_utime - u0)
+print(json.dumps([cpu, user]))
 """
 
 
 def _against_baseline(rev: str, rounds: int, runs: int) -> dict:
     """CPU seconds of ``simulate()`` of the study case LHHL (270 s) by this version and by
-    ``rev``: per round one child process of each (the order alternating), ``runs`` runs
-    per child after a warm-up; returns each child's median per version and each round's
+    ``rev`` (each from its own scenarios/paper.toml): per round one child process of each
+    (the order alternating), ``runs`` runs per child after a warm-up; returns each child's median per version and each round's
     ratio this version / baseline."""
     work = Path(tempfile.mkdtemp(prefix="ltdsim-bench-baseline-"))
     try:
@@ -188,20 +202,27 @@ def _against_baseline(rev: str, rounds: int, runs: int) -> dict:
                        check=True)
         subprocess.run(["git", "-C", str(clone), "checkout", "--quiet", rev], check=True)
         srcs = {"baseline": clone / "src", "this version": ROOT / "src"}
+        # each version runs the study case from its own scenario file (a newer file may
+        # hold keys an older version does not know, such as couplers' strength)
+        papers = {"baseline": clone / "scenarios" / "paper.toml", "this version": PAPER}
         cpu = {k: [] for k in srcs}
+        user = {k: [] for k in srcs}
         cpu["round ratios"] = []
+        cpu["round ratios, user"] = []
         for r in range(rounds):
             for name in (list(srcs) if r % 2 == 0 else list(srcs)[::-1]):
                 env = dict(os.environ, PYTHONPATH=str(srcs[name]))
-                out = subprocess.run([sys.executable, "-c", _CHILD, str(PAPER), str(runs)],
+                out = subprocess.run([sys.executable, "-c", _CHILD, str(papers[name]), str(runs)],
                                      env=env, capture_output=True, text=True)
                 if out.returncode != 0:
                     raise SystemExit(f"{name} failed:\n{out.stderr[-2000:]}")
-                got = json.loads(out.stdout.strip().splitlines()[-1])
+                got, got_user = json.loads(out.stdout.strip().splitlines()[-1])
                 cpu[name].append(statistics.median(got))
+                user[name].append(statistics.median(got_user))
                 print(f"baseline round {r + 1}/{rounds}: {name} done", file=sys.stderr,
                       flush=True)
             cpu["round ratios"].append(cpu["this version"][-1] / cpu["baseline"][-1])
+            cpu["round ratios, user"].append(user["this version"][-1] / user["baseline"][-1])
         return cpu
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -352,6 +373,8 @@ def main(argv=None) -> dict:
             (f"ratio this version / {args.baseline}, median of the rounds' ratios (target "
              "<= 1.0)", f"{statistics.median(base['round ratios']):.3f}"),
             (f"ratio this version / {args.baseline}, of the medians", f"{b1 / b0:.3f}"),
+            (f"ratio this version / {args.baseline}, user CPU, median of the rounds' ratios",
+             f"{statistics.median(base['round ratios, user']):.3f}"),
         ]
     print(f"process peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MiB",
           file=sys.stderr)
@@ -376,7 +399,8 @@ def main(argv=None) -> dict:
                        "ratio_cpu_all_variables_per_round": per_round_all},
         "drive_case": {"cpu_s": drv, "ratio_cpu": statistics.median(drv["round ratios"])},
         "energy_case": {"cpu_s": energy,
-                        "ratio_cpu": statistics.median(energy["round ratios"])},
+                        "ratio_cpu": statistics.median(energy["round ratios"]),
+                        "ratio_user_cpu": statistics.median(energy["round ratios, user"])},
         "baseline": None if base is None else {"revision": args.baseline, "cpu_s": base},
     }
     how = (f"; simulate() against the reference kernel: {args.rounds} interleaved rounds "
