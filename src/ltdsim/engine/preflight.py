@@ -335,12 +335,12 @@ def drive_lags(scenario) -> list[tuple[str, float]]:
           if (loco.drive or tr.drive) == "induction"]
     if not ks:
         return []
-    c = foc.controller_row(tr.motor.motor())
+    loops, stator = foc.time_constants(foc.controller_row(tr.motor.motor()))
     which = f"consist {ks[0]}" if len(ks) == 1 else f"consists {', '.join(map(str, ks))}"
     return [(f"the induction drive's current loops ({which}), 1 / (2 pi "
-             "traction.motor.current_bandwidth)", 1.0 / c[foc.C_WC]),
+             "traction.motor.current_bandwidth)", loops),
             (f"the induction drive's stator transient ({which}), sigma L_s / R_sigma "
-             "of traction.motor", c[foc.C_SIGMA] * c[foc.C_LS] / c[foc.C_RSIG])]
+             "of traction.motor", stator)]
 
 
 def _braking_force(scenario, loco, f_max) -> float:

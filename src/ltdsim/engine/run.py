@@ -166,6 +166,12 @@ class Estimate:
     what: str  #: what sets the step, in words
     exact: bool  #: the step count is exact (fixed step), not estimated (bs23)
 
+    @property
+    def keys(self) -> str:
+        """The keys that shorten a run, as a message names them."""
+        return ("solver.dt, solver.t_end" if self.exact else
+                "solver.rtol, solver.atol, solver.max_step, solver.t_end")
+
     def line(self, wall: bool = True) -> str:
         """The estimate in words, e.g. ``2,700,000 steps (step set by solver.dt = 0.0001
         s (ode3)), about 1 min 30 s and 0.0328 GB of memory`` (without the time when not
@@ -239,11 +245,8 @@ def check_time(scenario: Scenario, limit: float | None = TIME_LIMIT,
     est = estimate(scenario)
     if limit is None or est.seconds <= limit:
         return est
-    sv = scenario.solver
-    keys = ("solver.dt, solver.t_end" if not sv.adaptive else
-            "solver.rtol, solver.atol, solver.max_step, solver.t_end")
     raise ScenarioError(source or f"scenario {scenario.name!r}", [(
-        keys, f"the run would take about {duration(est.seconds)} ({est.line(False)}), beyond "
+        est.keys, f"the run would take about {duration(est.seconds)} ({est.line(False)}), beyond "
               f"the limit of {duration(limit)}; raise the step, shorten solver.t_end, or "
               f"{anyway} to run it anyway")])
 
@@ -471,10 +474,10 @@ def _fast_drive(scenario: Scenario, low: Lowered) -> list[str] | None:
     for k, j in enumerate(low.drive_of):
         if j < 0:
             continue
-        c = low.drive_ctrl[j]
-        lags = [(1.0 / c[foc.C_WC], "its current loops' time constant 1 / (2 pi "
+        loops, stator = foc.time_constants(low.drive_ctrl[j])
+        lags = [(loops, "its current loops' time constant 1 / (2 pi "
                  "traction.motor.current_bandwidth)"),
-                (c[foc.C_SIGMA] * c[foc.C_LS] / c[foc.C_RSIG], "its stator's transient "
+                (stator, "its stator's transient "
                  "time constant sigma L_s / R_sigma (traction.motor's leakage "
                  "inductances and resistances)")]
         tau, what = min(lags)

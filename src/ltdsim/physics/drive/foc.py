@@ -295,6 +295,14 @@ def controller_row(motor) -> np.ndarray:
     return c
 
 
+def time_constants(c: np.ndarray) -> tuple[float, float]:
+    """The drive's two fastest first-order lags from its controller row ``c``
+    (:data:`CTRL_PARAMS`), s: the current loops' ``1 / (2 pi current_bandwidth)`` and the
+    stator's transient ``sigma L_s / R_sigma`` (the plant pole the loops' PI cancels,
+    which stays a mode of the state)."""
+    return 1.0 / c[C_WC], c[C_SIGMA] * c[C_LS] / c[C_RSIG]
+
+
 def rated_flux(motor, m=None) -> float:
     """Rotor flux of the rated point (Wb peak): the equivalent circuit at base speed and
     rated slip with the phase voltage ``voltage_margin V_dc / sqrt(3)``."""
