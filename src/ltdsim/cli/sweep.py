@@ -15,8 +15,9 @@ from ltdsim.errors import LtdsimError, ScenarioError
 from ltdsim.progress import Display
 from ltdsim.cli.analyse import PHASES_FILES
 from ltdsim.cli.common import (
-    case_counter, check_folder, check_number, check_scheduler, check_workers, console,
-    err_console, fail, parse_set, plain_table, say, simulate_shown, write_csv,
+    MAX_TIME_ANYWAY, case_counter, check_folder, check_number, check_scheduler,
+    check_workers, console, err_console, fail, parse_set, plain_table, say, simulate_shown,
+    write_csv,
 )
 from ltdsim.results.outputs import check_outputs, record_outputs
 
@@ -100,7 +101,7 @@ def sweep(
         if not scheduler:  # (a cluster's workers check their own memory)
             sw.check_sweep_memory(spec, str(file), workers)
         sw.check_sweep_time(spec, str(file), TIME_LIMIT if max_time is None else
-                            (max_time or None), "give --max-time SECONDS (0: no limit)")
+                            (max_time or None), MAX_TIME_ANYWAY)
     except ScenarioError as exc:
         fail(exc)
         return

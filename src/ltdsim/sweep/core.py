@@ -373,8 +373,7 @@ def check_sweep_time(sweep: Sweep, source: str, limit: float | None, anyway: str
     est, case_id = sweep.slowest
     if est.seconds > limit:
         raise ScenarioError(f"{source} case {case_id}", [(
-            "solver.dt, solver.t_end" if est.exact else
-            "solver.rtol, solver.atol, solver.max_step, solver.t_end",
+            est.keys,
             f"the case would take about {duration(est.seconds)} ({est.line(False)}), "
             f"beyond the limit of {duration(limit)} for one case; raise its step, shorten "
             f"solver.t_end, or {anyway} to run it anyway")])
