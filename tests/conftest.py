@@ -132,3 +132,17 @@ def cli_refused(*args, code=2) -> str:
     errors = [line for line in res.stderr.splitlines() if line.startswith("error")]
     assert len(errors) == 1, res.stderr
     return " ".join(res.stderr.split())  # (rich may wrap a long line)
+
+
+def traced_peak(call):
+    """``(result, peak bytes)`` of ``call()`` under tracemalloc (Python's and numpy's
+    allocations)."""
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        out = call()
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    return out, peak

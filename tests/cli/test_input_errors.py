@@ -10,7 +10,7 @@ import pytest
 import ltdsim
 from ltdsim import ScenarioError, SimulationError
 
-from conftest import ROOT, build, cli_refused, train_dict
+from conftest import ROOT, build, cli_refused, traced_peak, train_dict
 
 EXAMPLE = (ROOT / "scenarios" / "short-train.toml").read_text()
 
@@ -750,12 +750,7 @@ def test_the_memory_estimate_matches_what_a_run_allocates():
     sc = ltdsim.load_scenario(SHORT).with_overrides(
         {"solver.t_end": 10.0, "solver.output_interval": 1e-4})
     ltdsim.simulate(sc.with_overrides({"solver.t_end": 0.01}))  # kernel loaded first
-    tracemalloc.start()
-    try:
-        ds = ltdsim.simulate(sc)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    ds, peak = traced_peak(lambda: ltdsim.simulate(sc))
     est = RUN.recording_bytes(sc)
     assert ds.sizes["time"] == 100_001
     assert ds.nbytes < est  # the result is part of what was estimated

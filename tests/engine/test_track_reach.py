@@ -5,7 +5,6 @@ hand to a stretch around it."""
 
 from __future__ import annotations
 
-import tracemalloc
 
 import numpy as np
 import pytest
@@ -14,7 +13,7 @@ import ltdsim
 from ltdsim.physics.alignment import Alignment, alignment_of
 from ltdsim.scenario import Track
 
-from conftest import ROOT
+from conftest import ROOT, traced_peak
 
 #: a curve of 250 m (60 mm of cant) under the train, with ramps of curvature and cant
 #: out to +-1e7 m on both sides: gridded over their whole extent the ramps alone are
@@ -85,12 +84,7 @@ def test_a_run_on_tables_reaching_10000_km_is_small_and_equals_the_cut_tables():
     far = _scenario(FAR, FAR_GRADE)
     near = _scenario(_cut(FAR, -2e4, 2e4), _cut_steps(FAR_GRADE, -2e4, 2e4))
     ltdsim.simulate(near)  # (compiles or loads the kernel outside the trace)
-    tracemalloc.start()
-    try:
-        ds = ltdsim.simulate(far)
-        peak = tracemalloc.get_traced_memory()[1]
-    finally:
-        tracemalloc.stop()
+    ds, peak = traced_peak(lambda: ltdsim.simulate(far))
     assert peak < 50e6, f"{peak / 1e6:.0f} MB"
     ref = ltdsim.simulate(near)
     curving = {"coupler_angle", "coupler_lateral_force", "wheel_l_over_v",

@@ -372,14 +372,18 @@ def load_outcome(tree: dict, path) -> Scenario | ScenarioError:
     return sc
 
 
+#: the same examples on every machine and run (CI reproduces a failure), no time limit
+REPRODUCIBLE = dict(deadline=None, derandomize=True, database=None,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                           HealthCheck.function_scoped_fixture])
+
+
 @pytest.fixture(scope="module")
 def tmp_dir(tmp_path_factory):
     return tmp_path_factory.mktemp("random-scenarios")
 
 
-@settings(max_examples=150, deadline=None, derandomize=True, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
-                                 HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, **REPRODUCIBLE)
 @given(base=st.sampled_from(sorted(BASES)), data=st.data())
 def test_a_schema_built_tree_loads_or_is_refused_in_one_line_per_problem(tmp_dir, base, data):
     tree = copy.deepcopy(BASES[base])
@@ -453,9 +457,7 @@ def check_cli(tree: dict, path) -> int:
     return code
 
 
-@settings(max_examples=20, deadline=None, derandomize=True, database=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
-                                 HealthCheck.function_scoped_fixture])
+@settings(max_examples=20, **REPRODUCIBLE)
 @given(base=st.sampled_from(sorted(BASES)), data=st.data())
 def test_the_command_line_runs_a_random_train_or_refuses_it_in_one_line(tmp_dir, base, data):
     tree = copy.deepcopy(BASES[base])
