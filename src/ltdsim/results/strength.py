@@ -28,8 +28,8 @@ ATTR = "strength_events_json"
 #: the kinds of event, the most severe first
 KINDS = ("ultimate", "proof", "solid")
 
-COLUMNS = ("coupler", "kind", "direction", "limit_N", "force_N", "time_s", "peak_time_s",
-           "between_samples", "grade")
+COLUMNS = ("coupler", "kind", "direction", "limit_N", "force_N", "travel_m",
+           "deflection_m", "time_s", "peak_time_s", "between_samples", "grade")
 
 
 def _grade_label(strength) -> str:
@@ -44,9 +44,10 @@ def strength_events(ds: xr.Dataset, scenario=None) -> pd.DataFrame:
     ``coupler`` (numbered from 1, coupler 1 behind the lead vehicle), ``kind``
     ("ultimate": over the ultimate load, the coupling would break; "proof": over the proof
     load, it would deform permanently; "solid": its gear closed solid, deflected beyond
-    its travel), ``direction`` ("tension" or "compression"), ``limit_N`` (the load, N;
-    for "solid" the gear's travel, m), ``force_N`` (the run's peak force that way, N, >=
-    0; for "solid" the largest deflection of one gear beyond the slack, m), ``time_s``
+    its travel), ``direction`` ("tension" or "compression"), ``limit_N`` (the load, N)
+    and ``force_N`` (the run's peak force that way, N, >= 0) of a load event (NaN for
+    "solid"), ``travel_m`` (the gear's travel, m) and ``deflection_m`` (the largest
+    deflection of one gear beyond the slack, m) of a "solid" one (NaN for a load), ``time_s``
     (when the recorded force first reached the limit, linear between samples; a peak over
     the limit between two samples, seen only in the step-by-step peaks, gives its own
     time and ``between_samples`` True), ``peak_time_s`` and ``grade`` (the strength
@@ -84,6 +85,7 @@ def strength_events(ds: xr.Dataset, scenario=None) -> pd.DataFrame:
                     when, between = _first_over(t, series, limit, float(peak), float(t_peak))
                     rows.append({"coupler": j + 1, "kind": kind, "direction": direction,
                                  "limit_N": float(limit), "force_N": float(peak),
+                                 "travel_m": math.nan, "deflection_m": math.nan,
                                  "time_s": when,
                                  "peak_time_s": float(t_peak), "between_samples": between,
                                  "grade": _grade_label(spec)})
@@ -93,7 +95,8 @@ def strength_events(ds: xr.Dataset, scenario=None) -> pd.DataFrame:
     if table.empty:
         return table
     table["_kind"] = table.kind.map(KINDS.index)
-    table["_over"] = table.force_N / table.limit_N
+    table["_over"] = (table.force_N / table.limit_N).fillna(table.deflection_m
+                                                           / table.travel_m)
     return (table.sort_values(["_kind", "_over", "coupler"], ascending=[True, False, True])
             .drop(columns=["_kind", "_over"]).reset_index(drop=True))
 
@@ -137,7 +140,8 @@ def _solid_events(ds: xr.Dataset, scenario) -> list[dict]:
         when = _crossing(t, d[:, j], reach if tension else -reach, 0, below=not tension)
         rows.append({"coupler": j + 1, "kind": "solid",
                      "direction": "tension" if tension else "compression",
-                     "limit_N": float(r.travel_m), "force_N": float(r.max_deflection_m),
+                     "limit_N": math.nan, "force_N": math.nan,
+                     "travel_m": float(r.travel_m), "deflection_m": float(r.max_deflection_m),
                      "time_s": when, "peak_time_s": float("nan"),
                      "between_samples": False, "grade": ""})
     return rows
