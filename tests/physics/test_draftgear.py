@@ -232,6 +232,23 @@ def test_reduction_recovers_a_simplified_coupler(fade, v_c):
     assert r.fit_percent > 99.9
 
 
+def test_reduction_search_is_bounded_by_its_estimate_and_blind_to_its_processes():
+    # tol = 0: the search cannot converge, so it runs every generation; the estimate's
+    # count of rig runs, (maxiter + 1) popsize n plus the polish, must bound what scipy did
+    seen = []
+    segments = ((1e6, np.pi / 2, 2.0), (1e7, 10 * np.pi, 0.2))
+    runs = [reduce_gear(CouplerParams(preset="friction-wedge-high"), segments=segments,
+                        dt=1e-3, workers=w, search=Search(tol=0.0, maxiter=6, popsize=5),
+                        before_search=seen.append) for w in (1, 2)]
+    n = 5  # fitted parameters
+    assert all(e.max_runs >= r.evaluations >= 7 * 5 * n for e, r in zip(seen, runs))
+    assert runs[0].generations == runs[1].generations == 6
+    assert seen[0].seconds_per_run > 0.0
+    # every candidate of a generation is evaluated before the population changes, so the
+    # processes used cannot change the result
+    assert runs[0].parameters == runs[1].parameters
+
+
 def test_a_train_of_friction_gears_pulls_away_under_newton():
     sc = ltdsim.load_scenario(PAPER, case="LHHL").with_overrides(
         {"couplers.default": {"preset": "friction-wedge-high"}, "solver.t_end": 20.0})

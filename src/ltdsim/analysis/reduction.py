@@ -20,10 +20,12 @@ Two rigs:
 
 from __future__ import annotations
 
+import os
+import time as _time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import differential_evolution
+from scipy.optimize import differential_evolution, minimize
 
 from ltdsim.analysis.gears import STUDY_SINES, sine_chain
 from ltdsim.engine.rig import RIG_FORCE, _lowered_gear, integrate_rig
@@ -156,18 +158,65 @@ class Reduction:
 class Search:
     """Settings of the differential evolution (``scipy.optimize.differential_evolution``):
     relative tolerance ``tol`` (-), at most ``maxiter`` generations, ``popsize`` times as
-    many candidates as parameters, random ``seed``."""
+    many candidates as parameters, random ``seed``; then the best candidate is polished
+    by L-BFGS-B (finite-difference gradients) in at most ``polish_runs`` rig runs (0: no
+    polish). The study's gears polish in under 100 runs."""
 
     tol: float = 1e-4
     maxiter: int = 1000
     popsize: int = 15
     seed: int = 0
+    polish_runs: int = 2000
+
+
+@dataclass(frozen=True)
+class SearchEstimate:
+    """How long :func:`reduce_gear`'s search can take, from one generation's worth of
+    rig runs timed through the same pool as the search (so that the cost of sending
+    candidates to the processes counts): at most ``(maxiter + 1) popsize n`` candidates
+    (``n`` parameters; the initial population and one per member and generation) and the
+    polish's ``polish_runs`` (:class:`Search`). The search usually stops much earlier, once the
+    population's spread falls under the tolerance."""
+
+    seconds_per_run: float  # s of wall time per rig run, processes and transfers included
+    max_runs: int  # rig runs at most, -
+    workers: int  # processes evaluating candidates in parallel, -
+
+    @property
+    def upper_seconds(self) -> float:
+        """Wall time of the search if it runs all its generations, s."""
+        return self.max_runs * self.seconds_per_run
+
+    def line(self) -> str:
+        """The estimate in words, for the user before the search starts."""
+        from ltdsim.engine.run import duration
+
+        return (f"the search takes up to about {duration(self.upper_seconds)} "
+                f"({self.max_runs} rig runs, {self.seconds_per_run:.2g} s each on {self.workers} "
+                f"process{'es' if self.workers > 1 else ''}); it stops earlier once converged")
+
+
+def _workers_used(workers: int) -> int:
+    """Processes that evaluate candidates at once for the option ``workers`` (-1: every
+    core), never more than the cores this process may use."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # (not on Linux)
+        cores = os.cpu_count() or 1
+    return cores if workers == -1 else max(1, min(workers, cores))
+
+
+def _seconds_per_run(objective, batch, mapper) -> float:
+    """Wall time per run of ``objective`` over ``batch`` through ``mapper``, s."""
+    start = _time.perf_counter()
+    list(mapper(objective, batch))
+    return (_time.perf_counter() - start) / len(batch)
 
 
 def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None,
                 mass: float = DEFAULT_MASS, dt: float = 5e-4, bounds: dict | None = None,
                 workers: int = 1, search: Search = Search(), progress=None,
-                fade: str = "deflection") -> Reduction:
+                fade: str = "deflection", before_search=None) -> Reduction:
     """Fit a simplified coupler to ``target``.
 
     Parameters
@@ -186,15 +235,22 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
     bounds : dict, optional
         ``{name: (low, high)}`` search bounds overriding :data:`DEFAULT_BOUNDS`.
     workers : int
-        Parallel processes for the population (-1: all cores). They are spawned and end
-        with this process even when it is killed; a script that asks for more than one
-        runs its work under ``if __name__ == "__main__":``.
+        Parallel processes for the population (-1: all cores), used only where they are
+        faster than this process alone (one generation's worth of rig runs is timed both
+        ways: a cheap rig run costs less than sending it to a process). The search is
+        the same whatever the processes (candidates of a generation are all evaluated
+        before the population is updated), so the result does not depend on them. They
+        are spawned and end with this process even when it is killed; a script that asks
+        for more than one runs its work under ``if __name__ == "__main__":``.
     search : Search
         The optimiser's tolerance, generations, population and seed.
     progress : callable, optional
         Called as ``progress(generation, maxiter, best_cost)`` after each generation.
     fade : {"deflection", "rate"}
         What the fitted coupler's k2 fades with (the simplified coupler's key ``fade``).
+    before_search : callable, optional
+        Called as ``before_search(estimate)`` with the :class:`SearchEstimate` once the
+        target's record is made and before the search starts (it may raise to refuse).
     """
     from ltdsim.analysis.gears import drive_deflection, drive_force
 
@@ -221,26 +277,46 @@ def reduce_gear(target: CouplerParams, *, rig: str = "deflection", segments=None
         if progress is not None:
             progress(generation[0], search.maxiter, float(intermediate_result.fun))
 
-    def optimise(mapper):
+    n = len(PARAMETERS)
+    runs = (search.maxiter + 1) * search.popsize * n + search.polish_runs
+    centre = np.array([(lo + hi) / 2.0 for lo, hi in log_bounds])
+    batch = [centre] * (search.popsize * n)
+    objective(centre)  # (compiles the rig on a first use)
+    alone = _seconds_per_run(objective, batch, map)
+
+    def optimise(mapper, per_run, used):
+        if before_search is not None:
+            before_search(SearchEstimate(seconds_per_run=per_run, max_runs=runs, workers=used))
         return differential_evolution(objective, log_bounds, tol=search.tol,
                                       maxiter=search.maxiter, popsize=search.popsize,
-                                      seed=search.seed, workers=mapper,
-                                      updating="deferred" if workers != 1 else "immediate",
-                                      polish=True, callback=callback)
+                                      seed=search.seed, workers=mapper, updating="deferred",
+                                      polish=False, callback=callback)
 
-    if workers == 1:
-        res = optimise(1)
-    else:  # scipy's own pool would outlive this process if it were killed
+    used = _workers_used(workers)
+    res = None
+    if used > 1:  # scipy's own pool would outlive this process if it were killed
         from ltdsim._workers import process_pool
 
-        with process_pool(workers) as pool:
-            res = optimise(pool.map)
+        with process_pool(used) as pool:
+            list(pool.map(objective, [centre] * used))  # (the processes start, compile)
+            pooled = _seconds_per_run(objective, batch, pool.map)
+            if pooled < alone:
+                res = optimise(pool.map, pooled, used)
+    if res is None:
+        res = optimise(map, alone, 1)
+    evaluations = int(res.nfev)
+    if search.polish_runs > 0:  # (as scipy's own polish, with a bound on its runs)
+        polished = minimize(objective, res.x, method="L-BFGS-B", bounds=log_bounds,
+                            options={"maxfun": search.polish_runs})
+        evaluations += int(polished.nfev)
+        if polished.fun < res.fun:
+            res.x, res.fun = polished.x, polished.fun
     values = 10.0 ** res.x
     fitted = objective.force(values)
     return Reduction(
         parameters=dict(zip(PARAMETERS, (float(v) for v in values))),
         fit_percent=fit_percent(ref.force.values, fitted), cost=float(res.fun),
-        evaluations=int(res.nfev), generations=generation[0], message=str(res.message),
+        evaluations=evaluations, generations=generation[0], message=str(res.message),
         time=ref.time.values, force_in=ref.deflection.values if rig == "deflection" else f_in,
         target_force=ref.force.values, target_deflection=ref.deflection.values,
         fitted_force=fitted, fade=fade)

@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from ltdsim.errors import ScenarioError
+from ltdsim.progress import Display
 from ltdsim.cli.common import (
     CouplerOpt, PresetOpt, ScenarioOpt, check_new, check_number, check_output, console,
     err_console, fail, gear_params, image_suffixes, plain_table, say, write_csv,
@@ -222,8 +222,14 @@ def reduce(
                                                             ".pdf, ...)")] = Path(
         "results/reduction.png"),
     toml: Annotated[Optional[Path], typer.Option(help="write the fitted coupler as TOML")] = None,
+    max_time: Annotated[Optional[float], typer.Option(
+        "--max-time", help="refuse a search that could take longer than this (all "
+                           "--maxiter generations), s of wall time (default: no limit)")] = None,
 ) -> None:
-    """Fit the simplified coupler to a detailed gear under the study's chain of sines."""
+    """Fit the simplified coupler to a detailed gear under the study's chain of sines.
+
+    Before the search one rig run is timed and the longest the search can take is
+    printed (it usually converges much earlier)."""
     from ltdsim.analysis.reduction import Search, reduce_gear
 
     try:
@@ -236,29 +242,43 @@ def reduce(
             check_number("--workers", workers, 1, 1024, whole=True, also="-1 (all cores)")
         check_number("--maxiter", maxiter, 1, 1_000_000, whole=True)
         check_number("--seed", seed, 0, 2**32 - 1, whole=True)
+        if max_time is not None:
+            check_number("--max-time", max_time, lo=0.0, lo_open=True, unit="s")
         target = gear_params(preset, scenario, coupler)
         if rig not in ("deflection", "force"):
-            raise ScenarioError("--rig", [("rig", f"must be deflection or force, got {rig!r}")])
+            raise ScenarioError("--rig", [("", f"must be deflection or force, got {rig!r}")])
         if fade not in ("deflection", "rate"):
-            raise ScenarioError("--fade", [("fade", f"must be deflection or rate, got "
+            raise ScenarioError("--fade", [("", f"must be deflection or rate, got "
                                                     f"{fade!r}")])
     except ScenarioError as exc:
         fail(exc)
         return
-    with Progress(TextColumn("[bold]fitting"), BarColumn(), TextColumn("generation {task.completed}"),
-                  TextColumn("cost {task.fields[cost]:.3e} N^2"), TimeElapsedColumn(),
-                  console=err_console) as prog:
-        task = prog.add_task("fit", total=maxiter, cost=float("nan"))
-        result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers,
-                             search=Search(maxiter=maxiter, seed=seed), fade=fade,
-                             progress=lambda g, n, c: prog.update(task, completed=g, cost=c))
+    try:
+        with Display(err_console) as show:
+            def announce(est):
+                if max_time is not None and est.upper_seconds > max_time:
+                    from ltdsim.engine.run import duration
+
+                    raise ScenarioError("--max-time", [("", (
+                        f"{est.line()}, beyond the limit of {duration(max_time)}; lower "
+                        "--maxiter, raise --dt, or raise --max-time"))])
+                show.info(est.line())
+
+            update = show.bar("fitting", maxiter, "generations at most")
+            result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers,
+                                 search=Search(maxiter=maxiter, seed=seed), fade=fade,
+                                 progress=lambda g, n, c: update(g), before_search=announce)
+    except ScenarioError as exc:
+        fail(exc)
+        return
     table = plain_table(f"Simplified coupler fitted to {preset or scenario}", ("parameter", "value"))
     units = {"damping": "N s/m", "k1": "N/m", "k2": "N/m", "k3": "N/m",
              "v_c": "m/s" if fade == "rate" else "m"}
     for k, v in result.parameters.items():
         table.add_row(f"{k} [{units[k]}]", f"{v:.6g}")
     table.add_row("fit [%]", f"{result.fit_percent:.2f}")
-    table.add_row("evaluations", str(result.evaluations))
+    table.add_row("generations", f"{result.generations} of at most {maxiter}")
+    table.add_row("evaluations (rig runs)", str(result.evaluations))
     console.print(table)
     from ltdsim.viz.plotting import save_reduction
 
