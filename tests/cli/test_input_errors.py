@@ -218,7 +218,7 @@ def test_a_folder_a_missing_file_and_an_unreadable_file_are_named(tmp_path, monk
     ('name = "wagon"', "name = 7", "vehicles.1.name", "must be a string"),
     ("k1 = 8.265776e6", 'k1 = "8.265776e6"', "couplers.default.k1", "must be a number"),
     ("index = 3", "index = true", "couplers.override.0.index", "must be a whole number"),
-    ("[300.0, 0.005]", "[300.0, true]", "track.gradient.1.1", "must be a number"),
+    ("[300.0, 0.005]", "[300.0, true]", "track.gradient", "row 2, number 2: must be a number"),
     ("ts = 1e-4", "ts = false", "driver.pid.ts", "must be a number"),
 ])
 def test_a_value_of_the_wrong_toml_type_is_refused_naming_its_key(tmp_path, old, new, key, kind):
@@ -226,6 +226,18 @@ def test_a_value_of_the_wrong_toml_type_is_refused_naming_its_key(tmp_path, old,
     msg = cli_refused("run", write(tmp_path, EXAMPLE.replace(old, new, 1)), "-q")
     assert f"bad.toml: {key}: {kind}" in msg, msg
     assert msg.count("bad.toml") == 1  # the key itself, not a knock-on error elsewhere
+
+
+@pytest.mark.parametrize("rows, says", [
+    ("[[0.0, 0.0, 1.0]]", "row 1 has 3 numbers, at most 2 allowed (got [0.0, 0.0, 1.0])"),
+    ("[[0.0, 0.0], [300.0]]", "row 2 has 1 number, needs 2"),
+])
+def test_a_row_of_a_track_table_with_the_wrong_count_of_numbers_is_named_from_1(tmp_path, rows,
+                                                                                says):
+    line = "gradient = [[0.0, 0.0], [300.0, 0.005]]"
+    assert line in EXAMPLE
+    msg = cli_refused("run", write(tmp_path, EXAMPLE.replace(line, f"gradient = {rows}", 1)), "-q")
+    assert f"bad.toml: track.gradient: {says}" in msg, msg
 
 
 def test_an_integer_is_a_number_and_the_scenario_runs_the_same(tmp_path):

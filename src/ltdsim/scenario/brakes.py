@@ -15,7 +15,7 @@ from pydantic import (
 
 from ltdsim.data import load_preset, preset_names
 
-from ltdsim.scenario._base import _Strict, quantity
+from ltdsim.scenario._base import MAX_CHAINAGE, _Strict, quantity
 from ltdsim.scenario.messages import first_problem
 
 # --- the valve tables' keys and their physical ranges ----------------------------------
@@ -266,7 +266,7 @@ class BrakeCommand(_Strict):
 
     time: float | None = Field(None, ge=0.0, le=1e7,
                                description="issued at this time, s (give time or position)")
-    position: float | None = Field(None, ge=-1e8, le=1e8,
+    position: float | None = Field(None, ge=-MAX_CHAINAGE, le=MAX_CHAINAGE,
                                    description="issued when the lead vehicle's centre "
                                                "passes this track position, m")
     handle: Literal["release", "minimum", "full", "emergency"] | None = Field(

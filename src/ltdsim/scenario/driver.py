@@ -13,7 +13,7 @@ from pydantic import (
 )
 
 
-from ltdsim.scenario._base import Pair, Points, Triple, _Strict, _check_table
+from ltdsim.scenario._base import Pair, Points, Triple, _Strict, _check_chainages, _check_table
 from ltdsim.scenario.brakes import BrakeCommand
 from ltdsim.scenario.traction import _check_notches
 
@@ -119,12 +119,20 @@ class Driver(_Strict):
     def _notch(cls, v):
         return _check_notches(v)
 
-    @field_validator("brake_profile", "brake_positions")
+    @field_validator("brake_profile")
     @classmethod
     def _levels(cls, v):
         if v is None:
             return v
-        return _check_table(v, "times or positions", lambda q: 0.0 <= q <= 1.0,
+        return _check_table(v, "times, s", lambda q: 0.0 <= q <= 1.0, "brake levels in [0, 1]")
+
+    @field_validator("brake_positions")
+    @classmethod
+    def _level_positions(cls, v):
+        if v is None:
+            return v
+        _check_chainages([p[0] for p in v], "lead positions, m")
+        return _check_table(v, "lead positions, m", lambda q: 0.0 <= q <= 1.0,
                             "brake levels in [0, 1]")
 
     @model_validator(mode="after")

@@ -64,6 +64,7 @@ def _problems(exc: ValidationError, root=None) -> list[tuple[str, str]]:
                 key, msg = head
         if err["type"] in ("finite_number",):
             msg = "must be a finite number (NaN and inf are not allowed)"
+        key, msg = _in_rows(err, loc, key, msg)
         if "input" in err and err["type"] not in ("missing", "extra_forbidden") and not isinstance(
                 err["input"], (dict, list)):
             msg += f" (got {_toml(err['input'])})"
@@ -74,6 +75,27 @@ def _problems(exc: ValidationError, root=None) -> list[tuple[str, str]]:
         else:
             out.append((key, msg))
     return out
+
+
+def _in_rows(err, loc: list[str], key: str, msg: str) -> tuple[str, str]:
+    """A problem inside a table of rows of numbers (``track.gradient = [[x, y], ...]``):
+    the table's key, and the row and number counted from 1 as a reader counts them
+    ("row 2 has 3 numbers, at most 2 allowed")."""
+    parts = err["loc"]
+    if err["type"] == "too_long" and len(parts) >= 1 and isinstance(parts[-1], int) \
+            and "max_length" in err.get("ctx", {}) and isinstance(err.get("input"), tuple):
+        row = parts[-1]
+        table = ".".join(loc[:-1])
+        return table, (f"row {row + 1} has {len(err['input'])} numbers, at most "
+                       f"{err['ctx']['max_length']} allowed")
+    if len(parts) >= 2 and isinstance(parts[-1], int) and isinstance(parts[-2], int):
+        row, col = parts[-2], parts[-1]
+        table = ".".join(loc[:-2])
+        if err["type"] == "missing":
+            return table, (f"row {row + 1} has {col} number{'s' if col != 1 else ''}, "
+                           f"needs {col + 1}")
+        return table, f"row {row + 1}, number {col + 1}: {msg}"
+    return key, msg
 
 
 def first_problem(exc: ValidationError, prefix: str = "", model=None) -> str:
@@ -119,6 +141,8 @@ def _toml(value) -> str:
     """A value as it reads in a TOML file (true, "text", 1.5)."""
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
     if isinstance(value, str):
         return '"' + _printable(value.replace("\\", "\\\\").replace('"', '\\"')) + '"'
     return repr(value)
