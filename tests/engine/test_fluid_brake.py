@@ -363,3 +363,34 @@ def test_remote_brake_control_point_vents_with_the_lead():
     print(f"whole train reached after {arr_both.max() - 0.2:.2f} s (lead alone "
           f"{arr_lead.max() - 0.2:.2f} s)")
     assert arr_both.max() - 0.2 < 0.6 * (arr_lead.max() - 0.2)
+
+
+def test_the_driver_valve_positions_reach_a_train():
+    """Through the scenario, the schedule and the kernel: a minimum reduction lapped 2 s
+    later holds every wagon's cylinder (graduated, below full service) on a UIC train;
+    a 26L handle-off takes the AAR train's pipe to zero without tripping its vents; the
+    lumped brake takes lap as the level before it."""
+    lapped = ltdsim.simulate(build(fluid_train(
+        10, [{"time": 1.0, "handle": "minimum"}, {"time": 3.0, "handle": "lap"}],
+        valve="uic-p", t_end=30.0, out=0.5, speed=5.0)))
+    pc = lapped.brake_cylinder_pressure.values  # Pa gauge
+    late = lapped.time.values >= 20.0
+    assert np.all(np.ptp(pc[late], axis=0)[1:] < 0.02e5)
+    assert 0.2e5 < pc[-1, 1:].min() and pc[-1, 1:].max() < 3.0e5
+    off = ltdsim.simulate(build(fluid_train(
+        10, [{"time": 1.0, "handle": "handle-off"}], valve="aar", t_end=150.0, out=0.5,
+        speed=5.0)))
+    assert off.brake_pipe_pressure.values[-1].max() < 0.1e5
+    # no vent tripped: the cylinders end at full-service equalisation, not emergency
+    assert off.brake_cylinder_pressure.values[-1, 1:].max() < 70.0 * 6894.76
+    lumped = fluid_train(3, [{"time": 1.0, "handle": "minimum"}, {"time": 3.0, "handle": "lap"}],
+                         t_end=5.0, out=0.5, speed=5.0)
+    lumped["brake"] = {"model": "lumped", "minimum_level": 0.3}
+    ds = ltdsim.simulate(build(lumped))
+    assert ds.brake_command.values[-1] == pytest.approx(0.3)
+
+
+def test_a_fast_fill_on_a_valve_without_one_is_refused():
+    with pytest.raises(ScenarioError, match=r"driver.brake_commands.0.handle: 'fast-fill' "
+                                             r"needs a driver's valve with a fast-fill"):
+        build(fluid_train(2, [{"time": 1.0, "handle": "fast-fill"}], valve="aar"))

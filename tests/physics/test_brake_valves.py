@@ -364,3 +364,73 @@ def test_a_valve_row_from_python_refuses_a_flag_or_text_where_a_number_belongs(v
     cv["threshold"] = value
     with pytest.raises(ValueError, match=r"threshold: expected a number"):
         control_valve_row(cv)
+
+
+# -- the driver's valve positions: fast fill and its overcharge, lap, handle-off ----------
+FILL = bv.H_FAST_FILL
+
+
+@pytest.mark.parametrize("name", ["uic-g", "uic-p"])
+def test_an_overcharge_decays_to_the_regulated_pressure_without_applying(name):
+    """A 30 s fast fill charges pipe and control reservoir to the overcharged pressure;
+    back in running the overcharge decays, slower than UIC 541-1's insensitivity rate
+    (0.3 bar in 60 s), so the distributor follows without applying and the pipe ends at
+    the regulated pressure. The same decay ten times faster (0.04 bar/s, eight times the
+    insensitivity rate) outruns the control reservoir's choke and applies the brake: the
+    rate, not luck, keeps the brake off."""
+    cv, dv = rows(name)
+    reg, over = dv[bv.DVP_REG], dv[bv.DVP_OC]
+    commands = [(0, REL, 0), (1.0, FILL, 0), (31.0, REL, 0)]
+    ts, ys = run((cv, dv), commands, 900.0, every=100)
+    pipe, pc = _gauge(ys, I_PIPE), _gauge(ys, CYL)
+    assert reg + 0.9 * over < pipe.max() <= reg + over + 0.01 * BAR
+    assert _gauge(ys, I_CV + bv.CV_CTRL).max() > reg + 0.8 * over  # the reference overcharged too
+    assert abs(pipe[-1] - reg) < 0.005 * BAR
+    assert over / dv[bv.DVP_TOC] < 0.3 * BAR / 60.0  # (the preset's decay rate, at its start)
+    assert pc.max() < 0.01 * BAR
+    fast = dv.copy()
+    fast[bv.DVP_TOC] = dv[bv.DVP_TOC] / 12.0
+    _ts, ys = run((cv, fast), commands, 300.0, every=100)
+    assert _gauge(ys, CYL).max() > 0.3 * BAR
+
+
+def test_uic_p_releases_an_emergency_inside_its_window_with_a_fast_fill():
+    """After an emergency the pipe is empty; 4 s of fast fill from the handle and then
+    running release the P distributor to 0.4 bar inside UIC 540's 15-20 s, counted from
+    the handle; running alone refills the pipe through the relay and takes longer."""
+    def release_time(commands):
+        ts, ys = run("uic-p", [(0, REL, 0), (1.0, EMG, 0)] + commands, 150.0)
+        pc = _gauge(ys, CYL)
+        return _first(ts, (ts > 61.0) & (pc <= 0.4 * BAR)) - 61.0
+
+    lo, hi = UIC_WINDOWS["uic-p"][1]
+    filled = release_time([(61.0, FILL, 0), (65.0, REL, 0)])
+    running = release_time([(61.0, REL, 0)])
+    assert lo <= filled <= hi, filled
+    assert running > filled + 2.0
+
+
+def test_lap_holds_the_pipe_and_the_cylinder():
+    """Lap 2 s into a full service: the equalising reservoir is held, the relay keeps the
+    pipe at it and the graduated cylinder stays where it was (UIC P)."""
+    ts, ys = run("uic-p", [(0, REL, 0), (1.0, SRV, _dv("uic-p", "full_reduction")),
+                           (3.0, LAP, 0)], 63.0, every=100)
+    held = ts >= 3.0
+    pipe, pc = _gauge(ys, I_PIPE)[held], _gauge(ys, CYL)[held]
+    assert pipe.max() - pipe.min() < 0.03 * BAR
+    assert 0.3 * BAR < pc[-1] < _cv("uic-p", "max_cylinder") - 1.0 * BAR
+    after = ts[held] >= 10.0
+    assert pc[after].max() - pc[after].min() < 0.01 * BAR
+
+
+def test_aar_handle_off_empties_the_pipe_at_the_service_rate_without_emergency():
+    """26L handle-off: the pipe to zero at the service rate; the emergency portion does
+    not trip, so the cylinder ends at full-service equalisation (about 64 psi), not at
+    the emergency pressure the emergency reservoir adds (about 77 psi)."""
+    cv, dv = rows("aar")
+    _ts, ys = run((cv, dv), [(0, REL, 0), (1.0, SRV, dv[bv.DVP_REG])], 120.0, every=100)
+    _ts, ye = run((cv, dv), [(0, REL, 0), (1.0, EMG, 0)], 120.0, every=100)
+    assert _gauge(ys, I_PIPE)[-1] < 0.01 * BAR
+    assert ys[:, EM].max() < 0.01
+    assert _gauge(ys, CYL)[-1] == pytest.approx(64.0 * PSI, abs=1.5 * PSI)
+    assert _gauge(ye, CYL)[-1] > _gauge(ys, CYL)[-1] + 10.0 * PSI

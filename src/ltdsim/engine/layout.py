@@ -140,10 +140,11 @@ EVENT_COLUMNS = ("time", "level", "kind", "value")
 N_EVENT_COLUMNS = len(EVENT_COLUMNS)
 #: kinds of brake command: by the level alone (brake_profile, brake_positions, the speed
 #: controller; the fluid brake makes a level L > 0 a service reduction of L x the
-#: full-service one and 0 a release), release, service (value: the reduction, Pa),
-#: emergency
-COMMAND_KINDS = ("level", "release", "service", "emergency")
-CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, CMD_EMERGENCY = layout(*COMMAND_KINDS)
+#: full-service one and 0 a release), release (running), service (value: the
+#: reduction, Pa), emergency, lap (the driver's valve holds), fast fill (UIC)
+COMMAND_KINDS = ("level", "release", "service", "emergency", "lap", "fast_fill")
+CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, CMD_EMERGENCY, CMD_LAP, CMD_FAST_FILL = layout(
+    *COMMAND_KINDS)
 
 #: columns of an induction drive's row of further constants (``Lowered.drive_misc``,
 #: traction.drive = "induction"): motors (= driven wheelsets) of the consist, gear

@@ -16,7 +16,8 @@ from ltdsim.engine.couplers import N_CCOL, P_D0, lower_coupler
 from ltdsim.engine.integrators import BS23, Tableau, get_tableau
 from ltdsim.engine.layout import (
     A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
-    CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, D_AW, D_BCTRL, D_BFULLSUM, D_BMODEL,
+    CMD_EMERGENCY, CMD_FAST_FILL, CMD_LAP, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, D_AW, D_BCTRL,
+    D_BFULLSUM, D_BMODEL,
     D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
     D_FILT, D_MODE, I_CELLS, I_CV, I_DV, I_EXH, I_NCP, I_PIPE, K_DBFADE, K_FMAX, K_MADH,
     K_NLEN, K_NOFF, K_PMAX, K_RATE, K_SHARE, K_TAU, K_VEH, K_Z, MODE_FORCE, MODE_NOTCH,
@@ -669,9 +670,11 @@ def brake_schedule(s: Scenario, key: str, dv_row: np.ndarray | None) -> list[lis
     sorted: ``brake_profile`` (or ``brake_positions``) and ``brake_commands``, each as
     ``[key, level, kind, value]`` (:data:`N_EVENT_COLUMNS`, ``CMD_*`` kinds). The lumped
     brake (``dv_row`` None) takes handles as levels (release 0, minimum
-    ``brake.minimum_level``, full and emergency 1); the fluid brake a level L as a
-    service reduction of L x the full-service one (0: release), a handle as the driver's
-    valve's reduction (``dv_row``, ``DV_PARAMS``)."""
+    ``brake.minimum_level``, full, suppression, handle-off and emergency 1, fast fill 0,
+    lap the level before); the fluid brake a level L as a service reduction of L x the
+    full-service one (0: release), a handle as the driver's valve's position or
+    reduction (``dv_row``, ``DV_PARAMS``; suppression: full service; handle-off: the
+    whole regulated pressure at the service rate)."""
     d = s.driver
     points = d.brake_profile if key == "time" else d.brake_positions
     rows = [[float(x), float(level), float(CMD_LEVEL), 0.0] for x, level in points or []]
@@ -681,26 +684,44 @@ def brake_schedule(s: Scenario, key: str, dv_row: np.ndarray | None) -> list[lis
 
         dv = dict(zip(DV_PARAMS, dv_row))
         full, minimum = float(dv["full_reduction"]), float(dv["minimum_reduction"])
-    for c in d.brake_commands or []:
-        x = getattr(c, key)
-        if x is None:
-            continue
+        regulated = float(dv["regulated"])
+    cmds = sorted((c for c in d.brake_commands or [] if getattr(c, key) is not None),
+                  key=lambda c: getattr(c, key))
+    for c in cmds:
+        x = float(getattr(c, key))
         if dv_row is None:  # lumped: levels (a reduction is refused on load)
-            level = {"release": 0.0, "minimum": s.brake.minimum_level, "full": 1.0,
+            if c.handle == "lap":  # holds the level of the command before (applied later)
+                rows.append([x, -1.0, float(CMD_LEVEL), 0.0])
+                continue
+            level = {"release": 0.0, "fast-fill": 0.0, "minimum": s.brake.minimum_level,
+                     "full": 1.0, "suppression": 1.0, "handle-off": 1.0,
                      "emergency": 1.0}[c.handle]
-            rows.append([float(x), level, float(CMD_LEVEL), 0.0])
+            rows.append([x, level, float(CMD_LEVEL), 0.0])
             continue
         if c.reduction is not None:
             red = float(c.reduction)
+        elif c.handle in ("minimum", "full", "suppression"):
+            red = minimum if c.handle == "minimum" else full
+        elif c.handle == "handle-off":  # (26L: the pipe to zero at the service rate)
+            red = regulated
         else:
-            red = {"release": 0.0, "minimum": minimum, "full": full, "emergency": 0.0}[c.handle]
+            red = 0.0
         if c.handle == "emergency":
-            rows.append([float(x), 1.0, float(CMD_EMERGENCY), 0.0])
+            rows.append([x, 1.0, float(CMD_EMERGENCY), 0.0])
+        elif c.handle == "lap":
+            rows.append([x, -1.0, float(CMD_LAP), 0.0])
+        elif c.handle == "fast-fill":
+            rows.append([x, 0.0, float(CMD_FAST_FILL), 0.0])
         elif red <= 0.0:
-            rows.append([float(x), 0.0, float(CMD_RELEASE), 0.0])
+            rows.append([x, 0.0, float(CMD_RELEASE), 0.0])
         else:
-            rows.append([float(x), min(red / full, 1.0), float(CMD_SERVICE), red])
+            rows.append([x, min(red / full, 1.0), float(CMD_SERVICE), red])
     rows.sort(key=lambda r: r[0])  # (stable: a profile point before a command at one time)
+    level = 0.0
+    for r in rows:  # a lap holds the level in force before it (its recorded command)
+        if r[1] < 0.0:
+            r[1] = level
+        level = r[1]
     return rows
 
 

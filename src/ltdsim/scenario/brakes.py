@@ -71,6 +71,10 @@ _Governor = quantity(0.0, 12e5, "Pa gauge", why=_MAIN)
 _GovernorBand = quantity(100.0, 1e5, "Pa", zero=True, why=_BAND)
 _GovernorTime = quantity(1e-3, 60.0, "s", zero=True, why=_TIME)
 _MainInitial = quantity(3e5, 12e5, "Pa gauge", why=_MAIN)
+_Overcharge = quantity(0.0, 1e5, "Pa", zero=True,
+                       why="a UIC fast fill's overcharge, a few tenths of a bar")
+_OverchargeTime = quantity(0.1, 600.0, "s", zero=True,
+                           why="an overcharge builds in seconds and decays over minutes")
 
 
 class ControlValveTable(_Strict):
@@ -138,6 +142,10 @@ class DriverValveTable(_Strict):
     governor_band: _GovernorBand | None = None
     governor_time: _GovernorTime | None = None
     main_initial: _MainInitial | None = None
+    fast_fill_diameter: _Diameter | None = None
+    overcharge: _Overcharge | None = None
+    overcharge_charge_time: _OverchargeTime | None = None
+    overcharge_time: _OverchargeTime | None = None
 
 
 def equalisation_pressure(regulated: float, auxiliary_volume: float,
@@ -269,10 +277,18 @@ class BrakeCommand(_Strict):
     position: float | None = Field(None, ge=-MAX_CHAINAGE, le=MAX_CHAINAGE,
                                    description="issued when the lead vehicle's centre "
                                                "passes this track position, m")
-    handle: Literal["release", "minimum", "full", "emergency"] | None = Field(
-        None, description="driver's-valve handle: release, minimum (first service "
-                          "reduction), full (full service), emergency (give handle or "
-                          "reduction); lumped brake: levels 0, brake.minimum_level, 1, 1")
+    handle: Literal["release", "fast-fill", "lap", "minimum", "full", "suppression",
+                    "handle-off", "emergency"] | None = Field(
+        None, description="driver's-valve handle position (give handle or reduction): "
+                          "release (running: the pipe charged to the regulated pressure), "
+                          "fast-fill (UIC: the main reservoir straight into the pipe while "
+                          "held, then an overcharge that decays without applying; needs a "
+                          "valve with fast_fill_diameter), lap (the valve holds the pipe "
+                          "where it is), minimum (first service reduction), full (full "
+                          "service), suppression (AAR 26L: a full-service reduction), "
+                          "handle-off (AAR 26L: the pipe to zero at the service rate), "
+                          "emergency; lumped brake: levels 0, 0, the level before, "
+                          "brake.minimum_level, 1, 1, 1, 1")
     reduction: float | None = Field(
         None, gt=0.0, le=1e6,
         description="fluid brake: service reduction of the pipe below its regulated "

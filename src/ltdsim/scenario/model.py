@@ -196,6 +196,11 @@ class Scenario(_Strict):
         _, dv = valve_tables(self.brake.fluid)
         regulated = float(dv["regulated"])
         for k, c in enumerate(cmds):
+            if c.handle == "fast-fill" and not float(dv.get("fast_fill_diameter", 0.0)) > 0.0:
+                raise ValueError(f"driver.brake_commands.{k}.handle: 'fast-fill' needs a "
+                                 "driver's valve with a fast-fill position (brake.fluid.valve "
+                                 "driver_valve.fast_fill_diameter > 0, as the UIC presets); "
+                                 "this valve has none: use 'release'")
             if c.reduction is not None and c.reduction >= regulated:
                 raise ValueError(f"driver.brake_commands.{k}.reduction: {c.reduction:g} Pa "
                                  f"must be below the regulated pipe pressure, {regulated:g} "

@@ -23,7 +23,7 @@ from ltdsim.engine.kernel.rk import (
 from ltdsim.engine.kernel.tables import _interp_at
 from ltdsim.engine.layout import (
     A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
-    CMD_EMERGENCY, CMD_LEVEL, CMD_RELEASE, D_BFULLSUM, D_BMODEL, D_BSHOEREF, D_BTAUA,
+    CMD_EMERGENCY, CMD_FAST_FILL, CMD_LAP, CMD_LEVEL, CMD_RELEASE, D_BFULLSUM, D_BMODEL, D_BSHOEREF, D_BTAUA,
     D_BTAUR, D_BVS, EV_KIND, EV_LEVEL, EV_TIME, EV_VALUE, I_CELLS, I_DV, I_EXH, I_NCP,
     I_PIPE, V_BAREA, V_BCELL, V_BCV, V_BDELAY, V_BFRIC, V_BFULL, V_BGAIN, V_BINVSHOES,
     V_BMU, V_BNTAB, V_BSHOE, V_BSPRING, V_BTAB, V_BZ,
@@ -34,7 +34,7 @@ from ltdsim.physics.air.brakes import (
 )
 from ltdsim.physics.air.brakevalves import (
     CV_CYL, DVP_FULL, N_CV, N_DV,
-    H_EMERGENCY, H_RELEASE, H_SERVICE, control_valve, driver_valve, driver_valve_compressor,
+    H_EMERGENCY, H_FAST_FILL, H_LAP, H_RELEASE, H_SERVICE, control_valve, driver_valve, driver_valve_compressor,
 )
 
 
@@ -124,6 +124,7 @@ def fluid_command(t, events, n_events, full):
     time ``t`` (s): the latest of ``events[:n_events]`` issued by then (every
     brake-control point at once: the remote units follow the lead by radio). A command
     by level L (``CMD_LEVEL``) is a service reduction of L x ``full`` (Pa), 0 a release;
+    lap and fast fill are the valve's positions of those names;
     before any command, release (the pipe charged)."""
     e = n_events - 1
     while e >= 0:
@@ -138,6 +139,10 @@ def fluid_command(t, events, n_events, full):
                 return H_RELEASE, 0.0
             if kind == CMD_EMERGENCY:
                 return H_EMERGENCY, 0.0
+            if kind == CMD_LAP:
+                return H_LAP, 0.0
+            if kind == CMD_FAST_FILL:
+                return H_FAST_FILL, 0.0
             return H_SERVICE, events[e, EV_VALUE]
         e -= 1
     return H_RELEASE, 0.0

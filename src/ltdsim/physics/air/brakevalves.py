@@ -94,6 +94,7 @@ H_RELEASE = 0
 H_SERVICE = 1
 H_EMERGENCY = 2
 H_LAP = 3
+H_FAST_FILL = 4
 
 # --- control valve ----------------------------------------------------------------------
 FAMILY_UIC = 0
@@ -157,9 +158,10 @@ DV_STATES = (
     "equalising",       # equalising reservoir, Pa abs
     "vent",             # emergency vent position, 0 closed .. 1 open, -
     "governor",         # compressor governor, 0 off .. 1 on, -
+    "overcharge",       # overcharge the regulating valve adds to the regulated pressure, Pa
 )
 N_DV = len(DV_STATES)
-(DV_MR, DV_ER, DV_VENT, DV_GOV) = range(N_DV)
+(DV_MR, DV_ER, DV_VENT, DV_GOV, DV_OC) = range(N_DV)
 
 DV_PARAMS = (
     "main_volume",            # m^3
@@ -182,12 +184,16 @@ DV_PARAMS = (
     "governor_band",          # Pa
     "governor_time",          # s
     "main_initial",           # main reservoir pressure at the start, Pa gauge
+    "fast_fill_cda",          # main reservoir -> pipe in fast fill (0: no such position), m^2
+    "overcharge",             # overcharge a fast fill leaves, Pa above the regulated pressure
+    "overcharge_charge_time",  # s: the overcharge builds with this time constant in fast fill
+    "overcharge_time",        # s: and decays with this one afterwards
 )
 N_DV_PARAMS = len(DV_PARAMS)
 _DV = {name: i for i, name in enumerate(DV_PARAMS)}
 (DVP_VMR, DVP_VER, DVP_REG, DVP_FULL, DVP_MIN, DVP_CHARGE, DVP_SERVICE, DVP_EMERG, DVP_FEED, DVP_EXH,
  DVP_VENT, DVP_REGBAND, DVP_RELBAND, DVP_TVENT, DVP_COMP, DVP_CUTIN, DVP_CUTOUT, DVP_GOVBAND,
- DVP_TGOV, DVP_MRINIT) = range(N_DV_PARAMS)
+ DVP_TGOV, DVP_MRINIT, DVP_FASTFILL, DVP_OC, DVP_TOCCHARGE, DVP_TOC) = range(N_DV_PARAMS)
 
 
 @njit(cache=True, forceinline=True)
@@ -341,9 +347,15 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
     par : float64 array (N_DV_PARAMS)
         Its parameter row, :data:`DV_PARAMS` (see :func:`driver_valve_row`).
     handle : int
-        :data:`H_RELEASE` (charge the pipe to the regulated pressure),
-        :data:`H_SERVICE` (``reduction`` Pa below it), :data:`H_EMERGENCY` (vent),
-        :data:`H_LAP` (hold the equalising reservoir; the relay keeps the pipe at it).
+        :data:`H_RELEASE` (running: charge the pipe to the regulated pressure plus what
+        is left of an overcharge), :data:`H_FAST_FILL` (the main reservoir straight into
+        the pipe through ``fast_fill_cda`` while the handle is held, up to the regulated
+        pressure plus ``overcharge``, which the regulating valve takes up),
+        :data:`H_SERVICE` (``reduction`` Pa below the regulated pressure),
+        :data:`H_EMERGENCY` (vent), :data:`H_LAP` (hold the equalising reservoir; the
+        relay keeps the pipe at it). Out of fast fill the overcharge decays with
+        ``overcharge_time``, slowly enough that the control valves, whose reference
+        follows the pipe, do not apply (the UIC's insensitivity to slow drops).
     reduction : float
         Service reduction below the regulated pressure, Pa (used in service only).
     gamma, r_gas, temperature, atmosphere, r_lin : float
@@ -364,13 +376,21 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
     v = min(max(s[DV_VENT], 0.0), 1.0)
     g = min(max(s[DV_GOV], 0.0), 1.0)
 
+    # overcharge of the regulating valve: builds in fast fill, decays otherwise
+    oc = s[DV_OC]
+    if handle == H_FAST_FILL and par[DVP_OC] > 0.0:
+        ds[DV_OC] = (par[DVP_OC] - oc) / par[DVP_TOCCHARGE]
+    elif par[DVP_OC] > 0.0:
+        ds[DV_OC] = -oc / par[DVP_TOC]
+    else:
+        ds[DV_OC] = 0.0
     # regulating valve of the equalising reservoir
     f_erc = 0.0
     f_ere = 0.0
     v_target = 0.0
     if handle != H_LAP:
-        if handle == H_RELEASE:
-            target = atmosphere + par[DVP_REG]
+        if handle == H_RELEASE or handle == H_FAST_FILL:
+            target = atmosphere + par[DVP_REG] + max(oc, 0.0)
             cda = par[DVP_SERVICE]
         elif handle == H_SERVICE:
             target = max(atmosphere + par[DVP_REG] - reduction, atmosphere)
@@ -390,6 +410,11 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
     rex = _through(_ramp(-z), p_bp, atmosphere, par[DVP_EXH], gamma, r_gas, temperature,
                    r_lin)
     f_vent = _through(v, p_bp, atmosphere, par[DVP_VENT], gamma, r_gas, temperature, r_lin)
+    f_fill = 0.0
+    if handle == H_FAST_FILL and par[DVP_FASTFILL] > 0.0:  # (up to the overcharged pressure)
+        z_fill = (atmosphere + par[DVP_REG] + par[DVP_OC] - p_bp) / par[DVP_RELBAND]
+        f_fill = _checked(_ramp(z_fill), pm, p_bp, par[DVP_FASTFILL], gamma, r_gas,
+                          temperature, r_lin)
     ds[DV_VENT] = (v_target - s[DV_VENT]) / par[DVP_TVENT]
     # compressor governor with hysteresis
     comp = 0.0
@@ -402,9 +427,9 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
         comp = g * par[DVP_COMP]
     else:
         ds[DV_GOV] = 0.0
-    ds[DV_MR] = rt / par[DVP_VMR] * (comp - f_erc - feed)
+    ds[DV_MR] = rt / par[DVP_VMR] * (comp - f_erc - feed - f_fill)
     ds[DV_ER] = rt / par[DVP_VER] * (f_erc - f_ere)
-    return feed - rex - f_vent, f_ere + rex + f_vent
+    return feed + f_fill - rex - f_vent, f_ere + rex + f_vent
 
 
 @njit(cache=True, forceinline=True)
@@ -454,6 +479,7 @@ _DV_ORIFICES = {
     "feed_diameter": "feed_cda",
     "exhaust_diameter": "exhaust_cda",
     "vent_diameter": "vent_cda",
+    "fast_fill_diameter": "fast_fill_cda",
 }
 _POSITIVE_CV = ("auxiliary_volume", "cylinder_volume", "band", "piston_time",
                 "quick_service_limit", "trip_band", "emergency_time", "apply_cda",
@@ -558,6 +584,13 @@ def driver_valve_row(preset: dict) -> np.ndarray:
                              "with a compressor")
     if row[DVP_MRINIT] <= row[DVP_REG]:
         raise ValueError("driver_valve.main_initial must exceed driver_valve.regulated")
+    if row[DVP_OC] > 0.0:
+        if row[DVP_FASTFILL] <= 0.0:
+            raise ValueError("driver_valve.overcharge needs fast_fill_diameter > 0 (the "
+                             "overcharge is what a fast fill leaves)")
+        if row[DVP_TOCCHARGE] <= 0.0 or row[DVP_TOC] <= 0.0:
+            raise ValueError("driver_valve: overcharge_charge_time and overcharge_time must "
+                             "be > 0 with an overcharge")
     return row
 
 
@@ -579,12 +612,13 @@ def driver_valve_init(p_bp_abs: float, par: np.ndarray,
                       atmosphere: float = 101325.0) -> np.ndarray:
     """States (:data:`DV_STATES`) of a driver's valve in release with the pipe charged
     to ``p_bp_abs`` (Pa abs): main reservoir at ``main_initial``, equalising reservoir
-    at the pipe pressure, vent closed, compressor governor off."""
+    at the pipe pressure, vent closed, compressor governor off, no overcharge."""
     s = np.empty(N_DV)
     s[DV_MR] = atmosphere + par[DVP_MRINIT]
     s[DV_ER] = p_bp_abs
     s[DV_VENT] = 0.0
     s[DV_GOV] = 0.0
+    s[DV_OC] = 0.0
     return s
 
 
@@ -679,6 +713,9 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
                                temperature) / (cell_volume * par[DVP_RELBAND])]
         if par[DVP_COMP] > 0.0:
             rates.append(1.0 / par[DVP_TGOV])
+        rates.append(pair(par[DVP_FASTFILL], vm, cell_volume))
+        if par[DVP_OC] > 0.0:
+            rates += [1.0 / par[DVP_TOCCHARGE], 1.0 / par[DVP_TOC]]
     else:
         raise ValueError(f"kind {kind!r}; allowed: 'control', 'driver'")
     return float(max(rates))
