@@ -31,6 +31,12 @@ ATTR = "fatigue_json"
 COLUMNS = ("coupler", "curve", "load", "damage", "damage_per_km", "cycles",
            "largest_range_N", "cutoff_range_N", "distance_m")
 
+#: -: reversals smaller than this share of a history's largest magnitude are rounding,
+#: not load, and always dropped (on any S-N curve their damage is below 1e-24 of a cycle at
+#: the history's scale); it also keeps the slopes whose product the rainflow package
+#: tests for a reversal from underflowing
+NOISE = 1e-12
+
 #: m: the least distance the train must run for a damage per km (below it, one metre,
 #: the run stood still and a damage per km would be a division by almost nothing)
 MIN_DISTANCE = 1.0
@@ -40,10 +46,11 @@ MIN_DISTANCE = 1.0
 def turning_points(x, gate: float = 0.0) -> np.ndarray:
     """Indices of the turning points of history ``x`` (any unit): its first point, each
     reversal (a sample where the slope changes sign; of a flat extreme, its last sample)
-    and its last point; with ``gate`` > 0 (x's unit) a hysteresis filter then drops every
-    reversal pair smaller than ``gate``, so that no cycle or half cycle of range below it
-    remains (the start, and the end, are replaced by the nearest extreme when the history
-    moves less than ``gate`` from them before it turns).
+    and its last point; a hysteresis filter then drops every reversal pair smaller than
+    ``gate`` (x's unit; at least :data:`NOISE` times the largest magnitude of ``x``), so
+    that no cycle or half cycle of range below it remains (the start, and the end, are
+    replaced by the nearest extreme when the history moves less than ``gate`` from them
+    before it turns), and every other cycle stays as it was.
 
     Returns
     -------
@@ -61,9 +68,10 @@ def turning_points(x, gate: float = 0.0) -> np.ndarray:
     way = np.sign(d[moving])
     turns = moving[1:][way[1:] != way[:-1]]  # where the slope changed sign: the turning
     idx = np.concatenate(([0], turns, [n - 1]))  # sample, last of its flat run
+    gate = max(float(gate), NOISE * float(np.max(np.abs(x[idx]))))
     if gate <= 0.0:
         return idx
-    return idx[_gated(x[idx], float(gate))]
+    return idx[_gated(x[idx], gate)]
 
 
 def _gated(v: np.ndarray, gate: float) -> np.ndarray:
@@ -116,6 +124,9 @@ def rainflow_cycles(x, gate: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.nd
     import rainflow
 
     v = np.asarray(x, dtype=float)[turning_points(x, gate)]
+    if v.size == 2:  # one half cycle (rainflow 3.2 yields none for a two-point series)
+        return (np.array([abs(v[1] - v[0])]), np.array([0.5 * (v[0] + v[1])]),
+                np.array([0.5]))
     out = np.array([c[:3] for c in rainflow.extract_cycles(v.tolist())], dtype=float)
     if out.size == 0:
         return np.zeros(0), np.zeros(0), np.zeros(0)
@@ -150,6 +161,11 @@ def cycles_to_failure(curve, ranges) -> np.ndarray:
     down to the cut-off, or infinite (no damage) without a second slope; infinite below
     the cut-off and for a range of 0."""
     dF = np.asarray(ranges, dtype=float)
+    with np.errstate(over="ignore", divide="ignore"):  # (a tiny range: N = inf, no damage)
+        return _cycles_to_failure(curve, dF)
+
+
+def _cycles_to_failure(curve, dF: np.ndarray) -> np.ndarray:
     N = np.full(dF.shape, np.inf)
     pos = dF > 0.0
     ref, n_ref, m = curve.reference_range, curve.reference_cycles, curve.slope
