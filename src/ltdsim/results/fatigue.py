@@ -299,8 +299,12 @@ def damage_lines(table: pd.DataFrame, limit: int = 3) -> list[str]:
         return []
     n = len(table)
     dist = float(table.distance_m.iloc[0])
-    over = (f"over {dist / 1e3:.3g} km" if dist == dist and dist >= MIN_DISTANCE
-            else "(the train did not move: no damage per km)")
+    if dist != dist:
+        over = "(position not recorded: no damage per km)"
+    elif dist < MIN_DISTANCE:
+        over = f"(the train ran {dist:.2g} m: no damage per km)"
+    else:
+        over = f"over {dist / 1e3:.3g} km"
     hurt = table[table.damage > 0.0]
     if hurt.empty:
         worst = table.loc[table.largest_range_N.idxmax()]
