@@ -32,9 +32,9 @@ COLUMNS = ("coupler", "curve", "load", "damage", "damage_per_km", "cycles",
            "largest_range_N", "cutoff_range_N", "distance_m")
 
 #: -: reversals smaller than this share of a history's largest magnitude are rounding,
-#: not load, and always dropped (on any S-N curve their damage is below 1e-24 of a cycle at
-#: the history's scale); it also keeps the slopes whose product the rainflow package
-#: tests for a reversal from underflowing
+#: not load, and always dropped (on a curve of slope m their damage is 1e-12^m of a cycle
+#: of the history's scale: 1e-36 at m = 3); it also keeps the slopes whose product the
+#: rainflow package tests for a reversal from underflowing
 NOISE = 1e-12
 
 #: m: the least distance the train must run for a damage per km (below it, one metre,
