@@ -197,3 +197,18 @@ def test_installed_study_tables_are_the_published_tables(installed):
     expected = json.loads((PACKAGE / "data" / "study_tables.json").read_text())
     assert got["tables"] == expected
     assert got["tables"]["appendix1"]  # the study's parameters are there, not an empty shell
+
+
+def test_installed_fatigue_curve_is_the_source_curve(installed):
+    """The wheel's ``aar-e-knuckle`` fatigue curve (package data under data/fatigue) is
+    found by name at run time and is this tree's file, numbers and sources."""
+    code = ("import json, ltdsim; from ltdsim.data import load_preset; "
+            "print(json.dumps({'file': ltdsim.__file__, "
+            "'curve': load_preset('fatigue', 'aar-e-knuckle')}))")
+    got = json.loads(_run([str(installed["python"]), "-c", code], env=installed["env"],
+                          cwd=installed["cwd"]).stdout)
+    assert installed["dir"].resolve() in Path(got["file"]).resolve().parents
+    with (PACKAGE / "data" / "fatigue" / "aar-e-knuckle.toml").open("rb") as fh:
+        expected = tomllib.load(fh)
+    assert got["curve"] == expected
+    assert got["curve"]["reference_range"] > 0.0 and got["curve"]["sources"]

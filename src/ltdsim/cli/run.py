@@ -110,6 +110,7 @@ def run(
     brake = _print_fluid_brake(ds)
     curving = _print_curving(ds)
     _print_strength(ds, sc)
+    _print_fatigue(ds, sc)
     warning = travel_warning(ds, sc)
     if warning:
         err_console.print(f"[yellow]warning:[/] {escape(warning)}")
@@ -260,6 +261,24 @@ def _print_strength(ds, sc) -> None:
     if table is None:
         table = strength_events(ds, sc)
     for line in event_lines(table):
+        console.print(escape(line), highlight=False, soft_wrap=True)
+
+
+def _print_fatigue(ds, sc) -> None:
+    """The couplers' fatigue damage by Miner's rule on rainflow-counted forces, the most
+    damaged first, this trip and per km (ltdsim.results.fatigue); nothing when no coupler
+    has a ``fatigue`` curve, a note when the run did not record coupler_force."""
+    from ltdsim.results.fatigue import damage_lines, fatigue_damage, stored_damage
+
+    table = stored_damage(ds)
+    if table is None:
+        table = fatigue_damage(ds, sc)
+    if table.empty and "coupler_force" not in ds and any(
+            sc.coupler(j).fatigue is not None for j in range(sc.n_couplers)):
+        say("fatigue: not counted (solver.record leaves out coupler_force, the history "
+            "the cycles are counted from)")
+        return
+    for line in damage_lines(table):
         console.print(escape(line), highlight=False, soft_wrap=True)
 
 

@@ -1,8 +1,9 @@
 """The data ltdsim ships: the study's published tables transcribed as JSON, and the named
 parameter sets (presets) of every family, one TOML file each with its sources: draft
 gears (``gears/``), brake valves (``brakes/``), traction motors (``motors/``) and rail
-conditions for the creep law (``creep/``), and the strengths of couplers and draw gear
-(``strength/``, proof and ultimate loads with their sources).
+conditions for the creep law (``creep/``), the strengths of couplers and draw gear
+(``strength/``, proof and ultimate loads with their sources) and their fatigue curves
+(``fatigue/``, S-N curves in coupler force range with their sources).
 
 One loader serves every family (:func:`preset_names`, :func:`load_preset`), reading
 package data through importlib.resources so that an installed wheel finds it as a
@@ -20,7 +21,7 @@ from importlib import resources
 #: the preset families: their folder under the package data, and what a preset is
 FAMILIES = {"gears": "gear preset", "brakes": "brake valve preset",
             "motors": "motor preset", "creep": "creep preset",
-            "strength": "coupler strength grade"}
+            "strength": "coupler strength grade", "fatigue": "coupler fatigue curve"}
 
 
 @cache
@@ -41,7 +42,7 @@ def _folder(family: str):
 @cache
 def preset_names(family: str) -> tuple[str, ...]:
     """Names of the shipped presets of ``family`` ("gears", "brakes", "motors", "creep",
-    "strength"),
+    "strength", "fatigue"),
     sorted; empty for an install without its package data."""
     folder = _folder(family)
     if not folder.is_dir():

@@ -218,6 +218,10 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         from ltdsim.results.strength import ATTR, events_json, strength_events
 
         ds.attrs[ATTR] = events_json(strength_events(ds, scenario))
+        # and the couplers' fatigue damage (ltdsim.results.fatigue), of those with a curve
+        from ltdsim.results import fatigue
+
+        ds.attrs[fatigue.ATTR] = fatigue.damage_json(fatigue.fatigue_damage(ds, scenario))
     return ds
 
 

@@ -105,6 +105,83 @@ StrengthKey = Annotated[
     Discriminator(lambda v: "grade" if isinstance(v, str) else "table")]
 
 
+def fatigue_curves() -> tuple[str, ...]:
+    """Names of the shipped coupler fatigue curves (``fatigue = NAME`` in a coupler:
+    ``ltdsim/data/fatigue``, docs/fatigue.md)."""
+    return preset_names("fatigue")
+
+
+#: the keys of a fatigue curve (docs/fatigue.md), the numbers of its S-N law
+FATIGUE_KEYS = ("load", "reference_range", "reference_cycles", "slope", "knee_cycles",
+                "slope_beyond_knee", "cutoff_cycles", "gate")
+
+
+class FatigueCurve(_Strict):
+    """An S-N curve in coupler force range (docs/fatigue.md): a Basquin law
+    N = reference_cycles (reference_range / dF)^slope, optionally with a knee (below it
+    no damage, or a second slope down to a cut-off). A curve of ``ltdsim/data/fatigue``
+    or a table given inline. No mean-force correction: a cycle's damage depends on its
+    range alone (after ``load`` has chosen the part of the force that loads the part)."""
+
+    load: Literal["draft", "buff", "both"] = Field(
+        description="which force loads the part: draft (tension, compression counted as "
+                    "0), buff (compression, tension counted as 0) or both (the signed "
+                    "force)")
+    reference_range: float = Field(gt=0.0, le=1e9,
+                                   description="force range of a point of the curve, N")
+    reference_cycles: float = Field(ge=1.0, le=1e12,
+                                    description="cycles to failure at reference_range, -")
+    slope: float = Field(ge=1.0, le=30.0, description="Basquin exponent m above the knee "
+                                                      "(N ~ dF^-m), -")
+    knee_cycles: float | None = Field(None, ge=1.0, le=1e12,
+                                      description="cycles at the knee, below whose range "
+                                                  "the curve changes, - (none: one slope "
+                                                  "throughout)")
+    slope_beyond_knee: float | None = Field(None, ge=1.0, le=60.0,
+                                            description="exponent below the knee, - (none: "
+                                                        "no damage below the knee)")
+    cutoff_cycles: float | None = Field(None, ge=1.0, le=1e15,
+                                        description="cycles at the cut-off, below whose "
+                                                    "range no damage, - (none: no cut-off)")
+    gate: float = Field(0.0, ge=0.0, le=1e9,
+                        description="hysteresis gate: reversals smaller than this are "
+                                    "dropped before counting, N")
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if self.slope_beyond_knee is not None and self.knee_cycles is None:
+            raise ValueError("slope_beyond_knee needs knee_cycles (the knee it starts at)")
+        if self.cutoff_cycles is not None:
+            if self.slope_beyond_knee is None:
+                raise ValueError("cutoff_cycles needs slope_beyond_knee (without a second "
+                                 "slope nothing below the knee does damage, so a cut-off "
+                                 "below it has no effect)")
+            if not self.cutoff_cycles > self.knee_cycles:
+                raise ValueError(f"cutoff_cycles ({self.cutoff_cycles:g}) must be above "
+                                 f"knee_cycles ({self.knee_cycles:g}): the cut-off lies "
+                                 "below the knee's range")
+        if self.gate >= self.reference_range:
+            raise ValueError(f"gate ({self.gate:g} N) must be below reference_range "
+                             f"({self.reference_range:g} N): a gate that wide drops the "
+                             "cycles the curve is about")
+        return self
+
+
+def fatigue_curve(fatigue: "str | FatigueCurve | None") -> FatigueCurve | None:
+    """The S-N curve of a coupler's ``fatigue`` key: a shipped curve's (by name) or the
+    inline table; None without one."""
+    if fatigue is None or isinstance(fatigue, FatigueCurve):
+        return fatigue
+    curve = load_preset("fatigue", fatigue)
+    return FatigueCurve(**{k: curve[k] for k in FATIGUE_KEYS if k in curve})
+
+
+#: a coupler's ``fatigue``: a shipped curve's name or an inline table (told apart by type)
+FatigueKey = Annotated[
+    Union[Annotated[str, Tag("curve")], Annotated[FatigueCurve, Tag("table")]],
+    Discriminator(lambda v: "curve" if isinstance(v, str) else "table")]
+
+
 #: the model a coupler without a ``model`` key (and without a preset naming one) takes
 DEFAULT_COUPLER_MODEL = "simplified"
 
@@ -147,6 +224,23 @@ class _CouplerBase(_Strict):
                           "aar-e-body, en15566-1000, en15566-1200, en15566-1500, uic-850) "
                           "or a table of draft_proof, draft_ultimate, buff_proof, "
                           "buff_ultimate, N; none: no strength events")
+
+    # the coupling's fatigue curve (its knuckle's, coupler's or draw gear's S-N curve in
+    # coupler force range): a run counts the cycles of each coupler's force and sums their
+    # damage by Miner's rule (ltdsim.results.fatigue); the forces do not depend on it
+    fatigue: FatigueKey | None = Field(
+        None, description="fatigue curve of the coupling (docs/fatigue.md: aar-e-knuckle) "
+                          "or a table of load, reference_range, reference_cycles, slope, "
+                          "knee_cycles, slope_beyond_knee, cutoff_cycles, gate; none: no "
+                          "fatigue damage")
+
+    @field_validator("fatigue")
+    @classmethod
+    def _known_curve(cls, v):
+        if isinstance(v, str) and v not in fatigue_curves():
+            raise ValueError(f"unknown coupler fatigue curve {v!r}; available: "
+                             f"{', '.join(fatigue_curves()) or 'none'}")
+        return v
 
     @field_validator("strength")
     @classmethod
@@ -507,9 +601,9 @@ class Couplers(_Strict):
     shares (:data:`SHARED_COUPLER_KEYS`: slack, gears, travel, solid stiffness) and takes the
     new model's own keys from itself, so the default's keys of its own model never
     reach a coupler of another model. An override that names a ``preset`` describes
-    another gear: it keeps only the default's ``slack``, ``gears`` and ``strength`` (the
-    coupling's free play, how many gears it holds and its coupler's strength, not the
-    gear's own keys) and takes every other key
+    another gear: it keeps only the default's ``slack``, ``gears``, ``strength`` and
+    ``fatigue`` (the coupling's free play, how many gears it holds and its coupler's
+    strength and fatigue curve, not the gear's own keys) and takes every other key
     from itself and its preset. An override's S replaces the default's S_table, its
     S_table the default's S (:data:`ALTERNATIVE_KEYS`; a preset's likewise).
     """

@@ -284,9 +284,10 @@ class Scenario(_Strict):
         for o in overrides:
             changed = o.model_dump(exclude_none=True, exclude={"index"})
             if "preset" in changed:  # another gear: only the coupling's own keys (its
-                # slack, how many gears it holds and its coupler's strength) carry over
+                # slack, how many gears it holds, its coupler's strength and fatigue
+                # curve) carry over
                 params = {"slack": params["slack"], "gears": params["gears"],
-                          "strength": params["strength"]}
+                          "strength": params["strength"], "fatigue": params["fatigue"]}
             elif changed.get("model", params["model"]) != params["model"]:
                 # another model: the keys every model shares carry over, not the old
                 # model's own
