@@ -434,3 +434,24 @@ def test_aar_handle_off_empties_the_pipe_at_the_service_rate_without_emergency()
     assert ys[:, EM].max() < 0.01
     assert _gauge(ys, CYL)[-1] == pytest.approx(64.0 * PSI, abs=1.5 * PSI)
     assert _gauge(ye, CYL)[-1] > _gauge(ys, CYL)[-1] + 10.0 * PSI
+
+
+def test_aar_emergency_builds_in_stages_to_the_same_pressure():
+    """The staged emergency (AB-family valves build emergency pressure in stages at a
+    controlled rate): the inshot comes as fast as an unstaged valve's, the full pressure
+    much later, and both end at the same equalisation of both reservoirs with the
+    cylinder (Boyle's law: the choke changes when, not where; within 0.6 psi, the pipe
+    air quick service adds while the pipe is still falling)."""
+    cv, dv = rows("aar")
+    unstaged = cv.copy()
+    unstaged[bv.CVP_EMBUILD] = 0.0
+    out = {}
+    for key, row in (("staged", cv), ("unstaged", unstaged)):
+        ts, ys = run((row, dv), [(0, REL, 0), (1.0, EMG, 0)], 150.0)
+        pc = _gauge(ys, CYL)
+        out[key] = (_first(ts, pc >= cv[bv.CVP_INSHOT]) - 1.0,
+                    _first(ts, pc >= 0.95 * pc[-1]) - 1.0, pc[-1])
+    (s_in, s95, s_end), (u_in, u95, u_end) = out["staged"], out["unstaged"]
+    assert s_in == pytest.approx(u_in, abs=0.1)
+    assert s95 > 2.0 * u95
+    assert s_end == pytest.approx(u_end, abs=0.6 * PSI)

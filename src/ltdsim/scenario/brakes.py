@@ -61,6 +61,8 @@ _FullDrop = quantity(1e3, 5e5, "Pa", zero=True,
 _QuickLimit = quantity(1e3, 3e5, "Pa gauge", why="0.4 bar UIC, 10 psi AAR")
 _Trip = quantity(1e3, 5e5, "Pa", zero=True, why="0.45-0.6 bar in the presets")
 _Cutoff = quantity(1e3, 3e5, "Pa gauge", zero=True, why="UIC, 0.2 bar typical")
+_Inshot = quantity(1e3, 5e5, "Pa gauge", zero=True,
+                   why="the first stage of a staged emergency, about 1 bar (15 psi)")
 _MainVolume = quantity(0.05, 5.0, "m^3", why="locomotive main reservoirs, 50-5000 l")
 _Equalising = quantity(5e-4, 0.1, "m^3", why="0.5-100 l")
 _Regulated = quantity(3e5, 10e5, "Pa gauge", why=_PIPE)
@@ -114,6 +116,8 @@ class ControlValveTable(_Strict):
     trip_band: _Band | None = None
     emergency_time: _Time | None = None
     control_cutoff: _Cutoff | None = None
+    emergency_inshot: _Inshot | None = None
+    emergency_build_diameter: _Diameter | None = None
 
 
 class DriverValveTable(_Strict):

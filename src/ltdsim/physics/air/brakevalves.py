@@ -59,7 +59,11 @@ row (:data:`CV_PARAMS`); the row's ``family`` picks the law:
   piston stays where it is (its friction): a released valve stays released, an applying
   one laps. In release the cylinder exhausts fully and the auxiliary and emergency
   reservoirs recharge. In emergency the emergency reservoir joins the auxiliary one in
-  the cylinder.
+  the cylinder; with ``emergency_build_cda`` > 0 the build-up is staged, as the AB-family
+  valves build emergency pressure in stages at a controlled rate to spare the train
+  slack shocks (US Army TM 55-203, AB and AB-1-B brake system components): up to
+  ``emergency_inshot`` (Pa gauge) the cylinder fills through its usual passages, beyond
+  it each reservoir feeds it through the build-up choke only.
 
 Both families have quick service (while the piston applies and the cylinder is below
 ``quick_service_limit``, pipe air flows into a quick-service bulb that bleeds to the
@@ -144,13 +148,15 @@ CV_PARAMS = (
     "trip_band",               # Pa
     "emergency_time",          # s
     "control_cutoff",          # UIC: cylinder pressure closing the control-reservoir choke, Pa gauge
+    "emergency_inshot",        # cylinder pressure up to which an emergency fills freely, Pa gauge
+    "emergency_build_cda",     # beyond it each reservoir feeds the cylinder through this, m^2
 )
 N_CV_PARAMS = len(CV_PARAMS)
 _CV = {name: i for i, name in enumerate(CV_PARAMS)}
 (CVP_FAMILY, CVP_VAUX, CVP_VCYL, CVP_VCTRL, CVP_VER, CVP_VQS, CVP_VQA, CVP_CHARGE, CVP_CTRL, CVP_ERCHARGE,
  CVP_APPLY, CVP_RELEASE, CVP_QS, CVP_QSVENT, CVP_QSCYL, CVP_QA, CVP_QAVENT, CVP_VENT, CVP_EMAPPLY,
  CVP_MAXCYL, CVP_FULLDROP, CVP_THRESH, CVP_RELTHRESH, CVP_BAND, CVP_TPISTON, CVP_QSLIMIT, CVP_TRIP,
- CVP_TRIPBAND, CVP_TEM, CVP_CUTOFF) = range(N_CV_PARAMS)
+ CVP_TRIPBAND, CVP_TEM, CVP_CUTOFF, CVP_INSHOT, CVP_EMBUILD) = range(N_CV_PARAMS)
 
 # --- driver's brake valve ---------------------------------------------------------------
 DV_STATES = (
@@ -301,16 +307,24 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
         f_charge = _through(-x, p_bp, pa, par[CVP_CHARGE], gamma, r_gas, temperature,
                             r_lin)
         ds[CV_CTRL] = 0.0
+    # staged emergency build-up: past the inshot pressure, an emergency fills the cylinder
+    # from each reservoir through the build-up choke only (0: not staged)
+    staged = 0.0
+    if par[CVP_EMBUILD] > 0.0:
+        staged = e * (1.0 - _ramp((par[CVP_INSHOT] - pcg) / band))
     if par[CVP_VER] > 0.0:
         f_er = _checked(-x, p_bp, pe, par[CVP_ERCHARGE], gamma, r_gas, temperature, r_lin)
-        f_em = _checked(e, pe, pc, par[CVP_EMAPPLY], gamma, r_gas, temperature, r_lin)
+        f_em = _checked(e, pe, pc, (1.0 - staged) * par[CVP_EMAPPLY]
+                        + staged * par[CVP_EMBUILD], gamma, r_gas, temperature, r_lin)
         ds[CV_ER] = rt / par[CVP_VER] * (f_er - f_em)
     else:
         ds[CV_ER] = 0.0
     ds[CV_PISTON] = (x_target - s[CV_PISTON]) / par[CVP_TPISTON]
 
     opening = max(x, 0.0)
-    f_apply = _checked(opening, pa, pc, par[CVP_APPLY], gamma, r_gas, temperature, r_lin)
+    f_apply = _checked(opening, pa, pc, (1.0 - staged) * par[CVP_APPLY]
+                       + staged * min(par[CVP_EMBUILD], par[CVP_APPLY]), gamma, r_gas,
+                       temperature, r_lin)
     f_release = _through(-x, pc, atmosphere, par[CVP_RELEASE], gamma, r_gas, temperature,
                          r_lin)
     # quick service: while applying and the cylinder is still low
@@ -471,6 +485,7 @@ _CV_ORIFICES = {
     "quick_action_vent_diameter": "quick_action_vent_cda",
     "vent_diameter": "vent_cda",
     "emergency_apply_diameter": "emergency_apply_cda",
+    "emergency_build_diameter": "emergency_build_cda",
 }
 _DV_ORIFICES = {
     "charge_diameter": "charge_cda",
@@ -695,6 +710,7 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
                   pair(par[CVP_QSVENT], vq, atmos), pair(par[CVP_QSCYL], cell_volume, vc),
                   pair(par[CVP_QA], cell_volume, vk), pair(par[CVP_QAVENT], vk, atmos),
                   pair(par[CVP_VENT], cell_volume, atmos), pair(par[CVP_EMAPPLY], ve, vc),
+                  pair(par[CVP_EMBUILD], ve if ve > 0.0 else va, vc),
                   1.0 / par[CVP_TPISTON], 1.0 / par[CVP_TEM]]
         f_full = _choked(max(par[CVP_APPLY], par[CVP_RELEASE]), p_max, gamma, r_gas, temperature)
         if par[CVP_FAMILY] == FAMILY_UIC:
