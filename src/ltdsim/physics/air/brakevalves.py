@@ -67,7 +67,12 @@ row (:data:`CV_PARAMS`); the row's ``family`` picks the law:
 
 Both families have quick service (while the piston applies and the cylinder is below
 ``quick_service_limit``, pipe air flows into a quick-service bulb that bleeds to the
-atmosphere, and into the cylinder: a local draw that speeds the service wave) and the
+atmosphere: a local draw that speeds the service wave) and a first stage that fills the
+cylinder fast up to that limit: from the pipe in AAR valves (secondary quick service,
+another local draw), from the auxiliary reservoir in UIC distributors (the minimum-
+pressure stage of the Knorr KE, fed from the auxiliary reservoir, and the C3W's inshot
+valve, closing at 0.5 bar, as their technical descriptions give them), so that an
+emergency, whose vented pipe has no air to give, has its first stage too. Both have the
 emergency vent described above (a local vent of the pipe to the atmosphere).
 
 The driver's brake valve has a main reservoir (optionally fed by a compressor), an
@@ -132,7 +137,8 @@ CV_PARAMS = (
     "release_cda",             # cylinder -> atmosphere, m^2
     "quick_service_cda",       # pipe -> quick-service bulb, m^2
     "quick_service_vent_cda",  # bulb -> atmosphere, m^2
-    "quick_service_cylinder_cda",  # pipe -> cylinder during quick service, m^2
+    "quick_service_cylinder_cda",  # first stage into the cylinder (UIC: from the auxiliary
+                                   # reservoir; AAR: from the pipe), m^2
     "quick_action_cda",        # pipe <-> quick-action chamber (the choke), m^2
     "quick_action_vent_cda",   # quick-action chamber -> atmosphere when tripped, m^2
     "vent_cda",                # pipe -> atmosphere when tripped (emergency vent), m^2
@@ -329,7 +335,14 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
                          r_lin)
     # quick service: while applying and the cylinder is still low
     qs = opening * _ramp(1.0 - pcg / par[CVP_QSLIMIT])
-    f_qs_cyl = _checked(qs, p_bp, pc, par[CVP_QSCYL], gamma, r_gas, temperature, r_lin)
+    # the cylinder's first stage: UIC distributors fill it from the auxiliary reservoir
+    # (so it comes in an emergency too, with the pipe vented); AAR valves' secondary
+    # quick service takes pipe air into the cylinder
+    uic = par[CVP_FAMILY] == FAMILY_UIC
+    f_qs_cyl = _checked(qs, pa if uic else p_bp, pc, par[CVP_QSCYL], gamma, r_gas,
+                        temperature, r_lin)
+    f_qs_aux = f_qs_cyl if uic else 0.0
+    f_qs_pipe = 0.0 if uic else f_qs_cyl
     f_qs = 0.0
     f_qs_vent = 0.0
     if par[CVP_VQS] > 0.0:
@@ -340,9 +353,9 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     else:
         ds[CV_QS] = 0.0
 
-    ds[CV_AUX] = rt / par[CVP_VAUX] * (f_charge - f_apply)
+    ds[CV_AUX] = rt / par[CVP_VAUX] * (f_charge - f_apply - f_qs_aux)
     ds[CV_CYL] = rt / par[CVP_VCYL] * (f_apply + f_em + f_qs_cyl - f_release)
-    draw = f_charge + f_ctrl + f_er + f_qs + f_qs_cyl + f_qa + f_vent
+    draw = f_charge + f_ctrl + f_er + f_qs + f_qs_pipe + f_qa + f_vent
     exhaust = f_release + f_qs_vent + f_qa_vent + f_vent
     return draw, exhaust
 
