@@ -670,7 +670,8 @@ def brake_schedule(s: Scenario, key: str, dv_row: np.ndarray | None) -> list[lis
     sorted: ``brake_profile`` (or ``brake_positions``) and ``brake_commands``, each as
     ``[key, level, kind, value]`` (:data:`N_EVENT_COLUMNS`, ``CMD_*`` kinds). The lumped
     brake (``dv_row`` None) takes handles as levels (release 0, minimum
-    ``brake.minimum_level``, full, suppression, handle-off and emergency 1, fast fill 0,
+    ``brake.minimum_level``, full, suppression and handle-off 1, emergency
+    ``brake.emergency_level``, fast fill 0,
     lap the level before); the fluid brake a level L as a service reduction of L x the
     full-service one (0: release), a handle as the driver's valve's position or
     reduction (``dv_row``, ``DV_PARAMS``; suppression: full service; handle-off: the
@@ -695,7 +696,7 @@ def brake_schedule(s: Scenario, key: str, dv_row: np.ndarray | None) -> list[lis
                 continue
             level = {"release": 0.0, "fast-fill": 0.0, "minimum": s.brake.minimum_level,
                      "full": 1.0, "suppression": 1.0, "handle-off": 1.0,
-                     "emergency": 1.0}[c.handle]
+                     "emergency": s.brake.emergency_level}[c.handle]
             rows.append([x, level, float(CMD_LEVEL), 0.0])
             continue
         if c.reduction is not None:

@@ -362,6 +362,11 @@ class Air(_Strict):
                     "Pa s")
 
 
+#: the lumped brake's keys a valve preset's [lumped] table may give (``brake.calibration``)
+LUMPED_CALIBRATED = ("propagation_speed", "apply_time_constant", "release_time_constant",
+                     "minimum_level", "emergency_level")
+
+
 class Brake(_Strict):
     """Train air brake: brake-pipe signal and brake-cylinder dynamics (lumped), or the
     brake pipe's gas dynamics, valves, reservoirs and cylinders (fluid)."""
@@ -395,8 +400,43 @@ class Brake(_Strict):
                                  description="lumped brake: the brake level of handle = "
                                              "'minimum' in driver.brake_commands (about 6 "
                                              "of 26 psi, AAR; 0.4 of 1.5 bar, UIC), -")
+    emergency_level: float = Field(1.0, ge=1.0, le=1.5,
+                                   description="lumped brake: the brake level of an "
+                                               "emergency, relative to full service (AAR "
+                                               "valves about 1.2 from their emergency "
+                                               "reservoirs; UIC 1), -")
+    calibration: str | None = Field(
+        None, description="lumped brake: take propagation_speed, apply_time_constant, "
+                          "release_time_constant, minimum_level and emergency_level as "
+                          "measured on the fluid brake with this valve preset (its "
+                          "[lumped] table in data/brakes); keys given beside it replace "
+                          "them")
     fluid: FluidBrake | None = Field(None, description="fluid brake: pipe and valves")
     air: Air = Field(Air(), description="fluid brake: gas data")
+
+    @model_validator(mode="after")
+    def _calibrated(self):
+        if self.calibration is None:
+            return self
+        if self.model != "lumped":
+            raise ValueError("calibration sets the lumped brake's constants from a valve "
+                             "preset; the fluid brake (model = 'fluid') takes the valve "
+                             "itself in brake.fluid.valve")
+        try:
+            table = load_preset("brakes", self.calibration).get("lumped")
+        except ValueError as exc:
+            raise ValueError(f"calibration: {exc}") from None
+        if not isinstance(table, dict):
+            raise ValueError(f"calibration: the brake preset {self.calibration!r} has no "
+                             "[lumped] table (no lumped constants measured for it)")
+        for key, value in table.items():
+            if key not in LUMPED_CALIBRATED:
+                raise ValueError(f"calibration: {self.calibration!r}: unknown key {key!r} "
+                                 f"in its [lumped] table; allowed: "
+                                 f"{', '.join(LUMPED_CALIBRATED)}")
+            if key not in self.model_fields_set:
+                setattr(self, key, float(value))
+        return self
 
     @model_validator(mode="after")
     def _fluid_keys(self):

@@ -21,6 +21,7 @@ _LUMPED_ONLY = {
     "apply_time_constant": "the valves fill the cylinders",
     "release_time_constant": "the valves empty the cylinders",
     "minimum_level": "the driver's valve gives the minimum reduction",
+    "emergency_level": "the valves' reservoirs set the emergency pressure",
 }
 
 #: a vehicle brake's keys only the fluid brake reads
