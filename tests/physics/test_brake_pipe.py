@@ -569,11 +569,13 @@ def _jacobian(p, q, rho, pipe_args, leaks, thermal):
 def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed, thermal):
     """pipe_max_rate is above the largest |eigenvalue| of the numerically linearised
     pipe (numpy), for random grids, side volumes, air temperatures 0.7-1.3 times the
-    wall's, flows up to 0.6 kg/s (Mach 0.7) and leaks up to a 5 mm orifice per cell, in
-    every thermal mode; and not far above: equal to it (1e-3) at rest in a tight pipe
-    (uniform pressure at the wall's temperature),
-    within 1.25 times with leaks, within 3 times with flow (friction's, the heat's and
-    the flow's shares are added as if they met in one mode)."""
+    wall's (the wall's in the isothermal mode, whose states keep it), flows up to 0.6 kg/s
+    (Mach 0.7) and leaks up to a 5 mm orifice per cell, in every thermal mode; and not far
+    above: equal to it (1e-3) at rest in a tight pipe (uniform pressure at the wall's
+    temperature), within 1.25 times with leaks (1.5 with the energy balance, whose bound
+    takes the hottest cell and the largest pressure step), within 3 times with flow
+    (friction's, the heat's and the flow's shares are added as if they met in one
+    mode)."""
     rng = np.random.default_rng(seed)
     g = pipe_geometry(lengths, n)
     nc = g.dx_cell.size
@@ -583,6 +585,8 @@ def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed, thermal):
     if flow == 0.0 and leak == 0.0:  # at rest: a uniform pressure at the wall's temperature
         p = np.full(nc, p[0])
         rho = p / (R * T)
+    elif thermal == THERMAL_ISOTHERMAL:  # (its states keep p = rho R T_w)
+        rho = p / (R * T)
     q = flow * rng.uniform(-1.0, 1.0, nc - 1)
     leaks = leak * rng.random(nc)
     volume = A * g.dx_cell * rng.uniform(1.0, 1.3, nc)
@@ -590,7 +594,8 @@ def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed, thermal):
     lam = np.max(np.abs(np.linalg.eigvals(_jacobian(p, q, rho, args, leaks, thermal))))
     bound = pipe_max_rate(p, q, rho, (*args, leaks), (GAMMA, R, T, PATM, R_LIN, thermal))
     assert lam <= bound * (1 + 1e-6)
-    assert bound <= (3.0 if flow > 0.0 else 1.25 if leak > 0.0 else 1.001) * lam
+    leaky = 1.25 if thermal == THERMAL_ISOTHERMAL else 1.5
+    assert bound <= (3.0 if flow > 0.0 else leaky if leak > 0.0 else 1.001) * lam
 
 
 @pytest.mark.parametrize("thermal,speed", [(THERMAL_WALL, C_S), (THERMAL_ISOTHERMAL, C)],
