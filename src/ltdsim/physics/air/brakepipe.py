@@ -47,11 +47,11 @@ this module held the air isothermal (``sqrt(R T)`` for every wave); it is kept a
 ``isothermal`` mode. What slows an emergency front below 343 m/s in a train is the side
 volumes (capacitance without inertance: small waves run at ``c sqrt(A / (A + b))``),
 wall friction, and the valves' draws and delays; with the presets' volumes the front
-runs at 270-290 m/s at 20 C, inside the 270-290 m/s of North American emergency
-applications and above UIC 540's 250 m/s, and it scales with ``sqrt(T)`` as the
-measurements with air at two temperatures show (Fluids 6(10), 351, 2021, doi
-10.3390/fluids6100351, University of Oviedo: the air's temperature changes the sonic
-pressure wave's transmission in a train brake rig).
+runs at 276-283 m/s end to end at 20 C on the shipped trains (docs/airbrake.md), inside
+the 270-290 m/s of North American emergency applications and above UIC 540's 250 m/s,
+and with ``sqrt(T)`` (258-264 m/s at -20 C); that the air's temperature changes the
+sonic pressure wave's transmission was found on a train-equivalent brake rig (Fluids
+6(10), 351, 2021, doi 10.3390/fluids6100351, University of Oviedo; its abstract).
 
 Literature. Fluid-dynamic brake-pipe models write mass, momentum and energy balances
 (Advances in Mechanical Engineering, 2023, doi 10.1177/16878132231169618, whose
@@ -145,6 +145,16 @@ every Runge-Kutta stage. An explicit Runge-Kutta step is a linear combination of
 rates, so it conserves the total too (tests/physics/test_brake_pipe.py checks 1e-9 over a
 transient). The pressure is a state of its own (the internal energy ``p V / (gamma -
 1)``), not ``rho R T`` of a temperature state, so that this stays linear.
+
+Energy. The cells' internal energies change by the enthalpy the flows carry, the
+mechanical work's share and the wall's heat; the kinetic energy lives at the faces.
+Their sum is conserved to the scheme's order, not to rounding: steady adiabatic flow
+keeps its stagnation temperature within 0.2 % along a pipe at Mach 0.3-0.5 (the Fanno
+test), and the head cell, which takes the driver's valve's air from the side, gives the
+flow its kinetic energy partly from the pressure's work at its face rather than all from
+its enthalpy (1 % of the temperature at Mach 0.34); a cell the flow leaves sideways (a
+vent) stops it and takes its kinetic energy as heat. None of this enters the train's
+mechanical energy accounting, which counts the brake shoes' work.
 
 Waves at the right speed. Without friction, heat and flow the scheme is the
 semi-discrete wave equation ``p_tt = gamma R T (A / a)`` (second difference of p): the
