@@ -42,9 +42,8 @@ def lumped_case(remote: bool, force_scale: float = 1.0, tau: float | None = None
     if force_scale != 1.0:
         for i, v in enumerate(sc.vehicles):
             if v.brake is not None:
-                b = v.brake.model_dump(exclude_none=True, exclude_unset=True)
-                for key in ("piston_area", "return_spring", "efficiency"):  # (fluid only)
-                    b.pop(key, None)
+                # (the keys given: the defaults of fluid-brake keys would be refused)
+                b = v.brake.model_dump(exclude_none=True, exclude_defaults=True)
                 b["cylinder_force"] *= force_scale
                 ov[f"vehicles.{i}.brake"] = b
     return sc.with_overrides(ov)

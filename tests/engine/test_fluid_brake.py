@@ -3,7 +3,9 @@
 Each test compares the engine's pipe, valves and cylinders, wired into the train, with
 something independent of the code under test: the conservation of air mass (computed
 here from the states and the volumes the preset file and the pipe's bore give), the
-brake-signal propagation speeds UIC 540 asks for, the order of application along a long
+brake-signal propagation speeds UIC 540 asks for (also at -20 and +40 C) and North
+American trains are measured at, the pipe's speed of sound (from the bore and the
+preset's side volumes, here) as their upper bound, the order of application along a long
 train, the lumped model's force at full service, and a second integrator.
 """
 
@@ -13,6 +15,7 @@ import importlib
 import math
 import tomllib
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -31,14 +34,31 @@ sim = importlib.import_module("ltdsim.engine.run")
 #: UIC 540 (the study's sonic propagation; brake-pipe emergency wave measured at
 #: 250-300 m/s): the least propagation speed of an emergency application, m/s
 UIC_540_EMERGENCY = 250.0
-#: isothermal speed of sound at 20 C, sqrt(R T), m/s: the pipe cannot carry a small
-#: pressure wave faster (a vent's flow adds at most its own speed, towards the vent)
-C_ISOTHERMAL = math.sqrt(287.05 * 293.15)
-def arrivals(ds, drop=PIPE_DROP):
+#: North American emergency applications: 270-290 m/s through the train (the range the
+#: reviewers of ltdsim's brake quote for AAR trains; A. Krug's "about 900 ft/s", 274 m/s,
+#: lies inside it: docs/brake-valves.md), m/s
+AAR_EMERGENCY = (270.0, 290.0)
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def sound_speed(valve, temperature=293.15, wagon=14.4, hose=2.0e-4):
+    """Speed of small waves in a train's brake pipe of wagons ``wagon`` m long, m/s:
+    adiabatic air, ``sqrt(gamma R T)``, slowed by the volumes beside the bore, the
+    hoses' (``hose``, m^3 per vehicle, the scenario key's default) and the branch of the
+    preset file's control valve: ``sqrt(A L / (A L + V_side))``. The pipe carries no
+    front faster (a vent's flow only slows the levels of its drop)."""
+    preset = tomllib.loads(resources.files("ltdsim.data").joinpath(
+        "brakes", f"{valve}.toml").read_text())
+    bore = math.pi * 0.0318 ** 2 / 4.0 * wagon
+    side = hose + preset["control_valve"].get("branch_volume", 0.0)
+    return math.sqrt(1.4 * 287.05 * temperature * bore / (bore + side))
+
+
+def arrivals(ds, drop=PIPE_DROP, lead=19.0):
     """Time (s) at which each vehicle's pipe pressure first lies ``drop`` Pa (default
     ltdsim's one definition of the signal's arrival, 0.3 bar) below its
     start, interpolated between samples; and each vehicle's distance from the lead's
-    front (m) along the pipe."""
+    front (m, the lead ``lead`` m long) along the pipe."""
     t = ds.time.values
     p = ds.brake_pipe_pressure.values
     below = p <= p[0] - drop
@@ -50,18 +70,20 @@ def arrivals(ds, drop=PIPE_DROP):
         target = p[0, i] - drop
         out[i] = t[ki - 1] + (t[ki] - t[ki - 1]) * (p0 - target) / (p0 - p1)
     x = ds.position.values[0]
-    front = x[0] + 0.5 * 19.0
+    front = x[0] + 0.5 * lead
     return out, front - x
 
 
-def rear_speed(ds, t_cmd, drop=PIPE_DROP):
+def rear_speed(ds, t_cmd, drop=PIPE_DROP, lead=19.0):
     """Brake-signal propagation speed, m/s, as the railways state it: the last vehicle's
     distance from the driver's valve over the time from the handle's movement (``t_cmd``,
-    s) to the pipe's ``drop`` (Pa) at that vehicle."""
-    arr, dist = arrivals(ds, drop)
-    # the rear is the last to see it (within an output interval: at a closed rear end the
-    # reflected drop reaches the last two wagons together)
-    assert arr[-1] >= arr.max() - float(ds.time[1] - ds.time[0])
+    s) to the pipe's ``drop`` (Pa) at that vehicle (the lead ``lead`` m long)."""
+    arr, dist = arrivals(ds, drop, lead)
+    # the rear is the last to see it, within 0.05 s: at the closed rear end the drop
+    # reflects and doubles, so under a slow service front the last wagon can cross the
+    # threshold a few hundredths of a second before the wagons just ahead of it (0.04 s
+    # on 100 AAR wagons in a full service)
+    assert arr[-1] >= arr.max() - max(0.05, float(ds.time[1] - ds.time[0]))
     return dist[-1] / (arr[-1] - t_cmd)
 
 
@@ -82,7 +104,7 @@ def test_emergency_propagates_at_the_uic_540_speed_and_service_slower(long_runs)
     sv = rear_speed(long_runs["aar", "full"], 0.2)
     print(f"emergency {em:.0f} m/s, full service {sv:.0f} m/s")
     # UIC 540's least emergency speed; no faster than the pipe's speed of sound
-    assert UIC_540_EMERGENCY <= em <= C_ISOTHERMAL
+    assert UIC_540_EMERGENCY <= em <= sound_speed("aar")
     assert sv < 0.9 * em
 
 
@@ -91,7 +113,7 @@ def test_uic_passenger_emergency_propagates_at_the_uic_540_speed(long_runs):
     arr, dist = arrivals(ds)
     em = dist[-1] / (arr[-1] - 0.2)
     print(f"uic-p emergency {em:.0f} m/s")
-    assert UIC_540_EMERGENCY <= em <= C_ISOTHERMAL
+    assert UIC_540_EMERGENCY <= em <= sound_speed("uic-p")
 
 
 def emergency_pistons(d):
@@ -117,8 +139,8 @@ def test_emergency_vent_front_runs_at_the_published_speed(valve):
     """The vent front itself, not only the first pipe drop: the moment each wagon's
     emergency piston passes half travel (its vent half open) along 100 wagons, fitted
     by least squares to a speed (wagons 10-100, past the head end's start-up), and end to
-    end from the command. Both lie between UIC 540's 250 m/s and the pipe's sqrt(R T):
-    the vents keep up with the drop instead of following it at ~200 m/s."""
+    end from the command. Both lie between UIC 540's 250 m/s and the pipe's speed of
+    sound: the vents keep up with the drop instead of following it at ~200 m/s."""
     t, e = emergency_pistons(fluid_train(100, [{"time": 0.2, "handle": "emergency"}],
                                          valve=valve, t_end=7.0, out=0.01))
     tripped = e > 0.5
@@ -129,7 +151,64 @@ def test_emergency_vent_front_runs_at_the_published_speed(valve):
     end_to_end = dist[-1] / (t_trip[-1] - 0.2)
     print(f"{valve}: vent front {slope:.0f} m/s along the train, {end_to_end:.0f} m/s end "
           f"to end (rear vents {t_trip[-1] - 0.2:.2f} s after the command)")
-    assert UIC_540_EMERGENCY <= end_to_end <= slope <= C_ISOTHERMAL
+    assert UIC_540_EMERGENCY <= end_to_end <= slope <= sound_speed(valve)
+
+
+#: the air temperatures UIC 540's emergency speed is checked at, C
+TEMPERATURES = (-20.0, 20.0, 40.0)
+
+
+@pytest.fixture(scope="module")
+def uic_freight_emergency():
+    """scenarios/uic-freight.toml's emergency (handle at 2 s; loco and 50 wagons, 739 m)
+    at -20, +20 and +40 C air, the first 5.5 s recorded every 0.01 s: the propagation
+    end to end (0.3 bar at the rear) in m/s by temperature."""
+    from ltdsim.scenario.load import load_scenario
+
+    base = load_scenario(ROOT / "scenarios" / "uic-freight.toml")
+    lead = base.vehicles[0].length
+    out = {}
+    for temp in TEMPERATURES:
+        sc = base.with_overrides({"solver.t_end": 5.5, "solver.output_interval": 0.01,
+                                  "brake.air.temperature": 273.15 + temp})
+        out[temp] = rear_speed(ltdsim.simulate(sc), 2.0, lead=lead)
+    print("uic-freight emergency, end to end: "
+          + ", ".join(f"{v:.1f} m/s at {t:g} C" for t, v in out.items()))
+    return out
+
+
+@pytest.mark.parametrize("temp", TEMPERATURES)
+def test_uic_freight_emergency_holds_uic_540_in_the_cold_and_the_heat(
+        uic_freight_emergency, temp):
+    """The 50-wagon UIC freight train's emergency reaches its rear at UIC 540's 250 m/s
+    or faster at -20, +20 and +40 C air, and no faster than the pipe's speed of sound at
+    that temperature (the bore and the preset's side volumes, computed here)."""
+    speed = uic_freight_emergency[temp]
+    assert UIC_540_EMERGENCY <= speed <= sound_speed("uic-g", 273.15 + temp)
+
+
+def test_the_emergency_front_scales_with_the_speed_of_sound(uic_freight_emergency):
+    """Air's speed of sound goes as sqrt(T): from -20 to +40 C by sqrt(313.15 / 253.15) =
+    1.112. The emergency front does the same within 2 % (what does not scale is the
+    valves' own delays: the vents' 10 ms travel, the driver's valve's 50 ms)."""
+    ratio = uic_freight_emergency[40.0] / uic_freight_emergency[-20.0]
+    assert uic_freight_emergency[-20.0] < uic_freight_emergency[20.0] < uic_freight_emergency[40.0]
+    assert abs(ratio / math.sqrt(313.15 / 253.15) - 1.0) < 0.02
+
+
+def test_heavy_haul_emergency_runs_at_the_north_american_speed():
+    """scenarios/heavy-haul-fluid.toml's emergency from the lead alone (case
+    emergency-lead: 2 + 105 + 2 + 105 vehicles, 2.6 km, AAR valves) at 20 C: the pipe's
+    0.3 bar drop reaches the rear at 270-290 m/s end to end, as North American trains
+    do, and below the pipe's speed of sound (12.2 m wagons)."""
+    from ltdsim.scenario.load import load_scenario
+
+    sc = load_scenario(ROOT / "scenarios" / "heavy-haul-fluid.toml", "emergency-lead")
+    sc = sc.with_overrides({"solver.t_end": 13.5, "solver.output_interval": 0.01})
+    speed = rear_speed(ltdsim.simulate(sc), 2.0, lead=sc.vehicles[0].length)
+    print(f"heavy-haul emergency from the lead: {speed:.1f} m/s end to end")
+    assert AAR_EMERGENCY[0] <= speed <= AAR_EMERGENCY[1]
+    assert speed < sound_speed("aar", wagon=12.2)
 
 
 @pytest.mark.parametrize("valve,handle", [("aar", "full"), ("aar", "minimum"),
@@ -175,19 +254,23 @@ def test_service_application_reaches_the_rear_later_and_lower(long_runs):
     assert rear[-1].max() < front[-1].min()
 
 
-def _masses(low, y, preset):
+def _masses(low, y, preset, hose, temperature):
     """Air mass (kg) in the pipe, every valve's volumes and to atmosphere, from the
-    state ``y`` (pressures Pa abs) and the volumes of the pipe's bore and the preset file
-    (read here, not through the engine)."""
+    state ``y`` (pipe densities kg/m^3, valve pressures Pa abs at the air's
+    ``temperature``, K) and the volumes of the pipe's bore, the hoses beyond it
+    (``hose``, m^3 per vehicle) and the preset file (its valves, and the branch on every
+    wagon's side of the pipe), read here, not through the engine."""
     from ltdsim.physics.air.brakevalves import CV_STATES, DV_STATES
 
-    rt = 287.05 * 293.15
+    rt = 287.05 * temperature
     idx = low.air_index
     nc = idx[1]
-    p = y[idx[0]:idx[0] + nc]
+    rho = y[idx[0] + 2 * nc - 1:idx[0] + 3 * nc - 1]
     area = math.pi * 0.0318 ** 2 / 4.0
     lengths = np.array([19.0] + [14.4] * (low.n - 1))
-    pipe = np.sum(p * np.repeat(lengths / 2, 2)) * area / rt
+    branch = preset["control_valve"].get("branch_volume", 0.0)
+    side = np.array([hose] + [hose + branch] * (low.n - 1))  # (the loco has no valve)
+    pipe = np.sum(rho * np.repeat((lengths * area + side) / 2, 2))
     cv_vol = {"auxiliary": "auxiliary_volume", "cylinder": "cylinder_volume",
               "control": "control_volume", "emergency_reservoir": "emergency_volume",
               "quick_service": "quick_service_volume",
@@ -208,7 +291,13 @@ def _masses(low, y, preset):
     return pipe, valves, y[idx[4]]
 
 
-def test_air_mass_is_conserved_over_charge_apply_release():
+@pytest.mark.parametrize("temperature", [293.15, 253.15])
+def test_air_mass_is_conserved_over_charge_apply_release(temperature):
+    """Air in the pipe (its densities), the valves' volumes (their pressures at the
+    air's temperature) and exhausted stays constant within 1e-9 over a full service,
+    release, emergency and release of 4 wagons, at 20 C and at -20 C: the valves take
+    the same temperature as the pipe (a valve at another temperature would move mass
+    between pipe and valves that this count, at brake.air.temperature, would not see)."""
     preset_name = "uic-p"
     preset = tomllib.loads(resources.files("ltdsim.data").joinpath(
         "brakes", f"{preset_name}.toml").read_text())
@@ -216,6 +305,9 @@ def test_air_mass_is_conserved_over_charge_apply_release():
                         {"time": 20.0, "handle": "emergency"},
                         {"time": 26.0, "handle": "release"}],
                     valve=preset_name, t_end=40.0, out=0.5, speed=25.0)
+    hose = 3e-4
+    d["brake"]["fluid"]["hose_volume"] = hose
+    d["brake"]["air"] = {"temperature": temperature}
     sc = build(d)
     low = lower(sc)
     n_rec = low.n_steps // low.record_every + 1
@@ -224,10 +316,10 @@ def test_air_mass_is_conserved_over_charge_apply_release():
     for r in range(0, n_rec, 4):
         status, _ = kernel.run_adaptive(y, ctl, stepper, r, min(r + 4, n_rec), grid, *common)
         assert status == kernel.OK
-        parts.append(_masses(low, y, preset))
+        parts.append(_masses(low, y, preset, hose, temperature))
         totals.append(sum(parts[-1]))
     parts = np.array(parts)
-    m0 = _masses(low, low.y0, preset)
+    m0 = _masses(low, low.y0, preset, hose, temperature)
     total0 = sum(m0)
     drift = np.max(np.abs(np.array(totals) - total0)) / total0
     print(f"pipe {m0[0]:.4g} kg, valves {m0[1]:.4g} kg at the start; exhausted "
@@ -319,6 +411,12 @@ def test_fluid_brake_input_errors_are_one_line():
     assert "regulated" in _error(d)
     d = fluid_train(2, [{"time": 1.0, "position": 5.0, "handle": "full"}])
     assert "exactly one of time" in _error(d)
+    for temp in (223.15, 333.15, -20.0):  # outside -40 to +50 C, or a value in C
+        d = fluid_train(2, [{"time": 1.0, "handle": "full"}])
+        d["brake"]["air"] = {"temperature": temp}
+        text = _error(d)
+        assert all(w in text for w in ("brake.air.temperature", "233.15 K", "323.15 K",
+                                       "-40 C", "+50 C", "kelvin")), text
 
 
 def test_lumped_handles_are_levels():
@@ -359,7 +457,10 @@ def test_remote_brake_control_point_vents_with_the_lead():
     # between the two, the pipe drops from both sides: the wagons there (at most 25
     # wagons from a control point) see it before the rear (50 wagons from the remote)
     assert arr_both[1:51].max() < arr_both[-1]
-    assert int(np.argmax(arr_both)) == len(arr_both) - 1
+    # the rear (50 wagons from the remote) is the last reached, within 0.05 s (the drop
+    # reflected at the closed rear end crosses the threshold there 0.02 s before it does
+    # two wagons ahead)
+    assert arr_both[-1] >= arr_both.max() - 0.05 and int(np.argmax(arr_both)) > 95
     print(f"whole train reached after {arr_both.max() - 0.2:.2f} s (lead alone "
           f"{arr_lead.max() - 0.2:.2f} s)")
     assert arr_both.max() - 0.2 < 0.6 * (arr_lead.max() - 0.2)

@@ -343,10 +343,12 @@ def test_every_fluid_brake_key_lands_in_its_column_or_row():
     d["vehicles"][1]["brake"].update(piston_area=0.071, return_spring=1503.0,
                                      efficiency=0.83)
     air = {"gamma": 1.39, "gas_constant": 287.5, "temperature": 280.0,
-           "atmosphere": 99000.0, "linear_ratio": 0.99, "viscosity": 1.7e-5}
-    fluid = {"valve": {"preset": "uic-g", "control_valve": {"auxiliary_volume": 0.0917}},
+           "atmosphere": 99000.0, "linear_ratio": 0.99, "viscosity": 1.7e-5,
+           "thermal": "adiabatic", "conductivity": 0.031}
+    fluid = {"valve": {"preset": "uic-g", "control_valve": {"auxiliary_volume": 0.0917,
+                                                            "branch_volume": 1.7e-3}},
              "pipe_diameter": 0.0333, "cells_per_vehicle": 3, "roughness": 5.1e-5,
-             "leakage": 3.3e-7, "regulated_pressure": 4.9e5}
+             "leakage": 3.3e-7, "regulated_pressure": 4.9e5, "hose_volume": 3.1e-4}
     d["brake"] = {"model": "fluid", "fluid": fluid, "air": air, "level_step": 0.1}
     low = lower(build(d))
     V = L.VEHICLE_COLUMNS
@@ -367,17 +369,27 @@ def test_every_fluid_brake_key_lands_in_its_column_or_row():
     gas = low.air_gas
     for key, slot in (("gamma", "gamma"), ("gas_constant", "r_gas"),
                       ("temperature", "temperature"), ("atmosphere", "atmosphere"),
-                      ("linear_ratio", "r_lin"), ("viscosity", "viscosity")):
+                      ("linear_ratio", "r_lin"), ("viscosity", "viscosity"),
+                      ("conductivity", "conductivity")):
         assert gas[col(L.AIR_SLOTS, slot)] == air[key]
+    from ltdsim.physics.air.brakepipe import THERMAL_MODES
+    assert THERMAL_MODES[int(gas[col(L.AIR_SLOTS, "thermal")])] == air["thermal"]
     assert gas[col(L.AIR_SLOTS, "diameter")] == fluid["pipe_diameter"]
     assert gas[col(L.AIR_SLOTS, "roughness")] == fluid["roughness"]
     lengths = [v["length"] for v in VEHICLES]
     np.testing.assert_allclose(low.pipe_dx_cell, np.repeat(np.array(lengths) / 3, 3),
                                rtol=1e-15)
     np.testing.assert_allclose(low.pipe_leak, fluid["leakage"] / 3, rtol=1e-15)
+    # every (braked) vehicle's hoses and branch, a third in each of its cells
+    area = np.pi * fluid["pipe_diameter"] ** 2 / 4
+    np.testing.assert_allclose(low.pipe_volume, area * low.pipe_dx_cell + (3.1e-4 + 1.7e-3) / 3,
+                               rtol=1e-14)
     zp, nc = low.air_index[0], low.air_index[1]
     assert nc == 3 * len(VEHICLES)
     np.testing.assert_array_equal(low.y0[zp:zp + nc], air["atmosphere"] + 4.9e5)
+    # the pipe's densities after its face flows: the charged air at the temperature
+    np.testing.assert_allclose(low.y0[zp + 2 * nc - 1:zp + 3 * nc - 1],
+                               (air["atmosphere"] + 4.9e5) / (287.5 * 280.0), rtol=1e-15)
     assert low.cv_rows[0, CV_PARAMS.index("auxiliary_volume")] == 0.0917
     assert low.dv_rows[0, DV_PARAMS.index("regulated")] == 4.9e5
     placed = {FluidBrake: set(fluid), Air: set(air)}

@@ -1,7 +1,8 @@
 """A single-vehicle brake rig for the valve tests: one driver's valve feeding one volume
-(a vehicle's brake pipe) that one control valve draws from; integrated by classical
-Runge-Kutta at a fixed step (which keeps linear invariants such as the air mass to
-rounding)."""
+(a vehicle's brake pipe, isothermal at the valves' temperature, as on a test stand whose
+pipe the valves' timing is read from) that one control valve draws from; integrated by
+classical Runge-Kutta at a fixed step (which keeps linear invariants such as the air mass
+to rounding)."""
 
 import math
 
@@ -26,10 +27,10 @@ def rig_rhs(y, cv, dv, handle, reduction, forced, pipe_volume, dy):
     """Rates of the rig's states. ``forced`` >= 0 replaces the driver's valve by a pipe
     vent of that Cd x area (m^2) (the driver's valve then sits in lap)."""
     p = y[I_PIPE]
-    draw, exh_cv = bv.control_valve(p, y[I_CV:I_CV + NC], cv, GAMMA, R_GAS, T, ATM, R_LIN,
-                                    dy[I_CV:I_CV + NC])
-    into, exh_dv = bv.driver_valve(p, y[I_DV:I_DV + ND], dv, handle, reduction, GAMMA,
-                                   R_GAS, T, ATM, R_LIN, dy[I_DV:I_DV + ND])
+    draw, exh_cv, _ = bv.control_valve(p, T, y[I_CV:I_CV + NC], cv, GAMMA, R_GAS, T, ATM,
+                                       R_LIN, dy[I_CV:I_CV + NC])
+    into, exh_dv, _ = bv.driver_valve(p, T, y[I_DV:I_DV + ND], dv, handle, reduction, GAMMA,
+                                      R_GAS, T, ATM, R_LIN, dy[I_DV:I_DV + ND])
     comp = bv.driver_valve_compressor(y[I_DV:I_DV + ND], dv)
     extra = 0.0
     if forced > 0.0:
@@ -124,7 +125,7 @@ def mass(ys, cv, dv, pipe_volume=PIPE_VOLUME):
 @njit(cache=True)
 def _cv_rhs(p, s, cv, ds):
     """The control valve's rates on the pipe pressure p (one compiled copy of the law)."""
-    bv.control_valve(p, s, cv, GAMMA, R_GAS, T, ATM, R_LIN, ds)
+    bv.control_valve(p, T, s, cv, GAMMA, R_GAS, T, ATM, R_LIN, ds)
 
 
 @njit(cache=True)

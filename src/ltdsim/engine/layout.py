@@ -114,16 +114,21 @@ BRAKE_MODELS = ("lumped", "fluid")
 BRAKE_LUMPED, BRAKE_FLUID = layout(*BRAKE_MODELS)
 
 #: fluid brake's gas and pipe constants (``AirBrake.gas``): ratio of specific heats -,
-#: gas constant J/(kg K), temperature K, atmosphere Pa abs, the orifice law's linear
-#: ratio -, dynamic viscosity Pa s, pipe bore area m^2, bore diameter m, wall roughness m
+#: gas constant J/(kg K), the ambient temperature (the pipe wall's and the valves') K,
+#: atmosphere Pa abs, the orifice law's linear ratio -, dynamic viscosity Pa s, pipe bore
+#: area m^2, bore diameter m, wall roughness m, the pipe air's thermal mode
+#: (``brakepipe.THERMAL_*`` code), thermal conductivity of air W/(m K)
 AIR_SLOTS = ("gamma", "r_gas", "temperature", "atmosphere", "r_lin", "viscosity",
-             "area", "diameter", "roughness")
-(A_GAMMA, A_RGAS, A_TEMP, A_ATM, A_RLIN, A_VISC, A_AREA, A_DIAM, A_ROUGH) = layout(*AIR_SLOTS)
+             "area", "diameter", "roughness", "thermal", "conductivity")
+(A_GAMMA, A_RGAS, A_TEMP, A_ATM, A_RLIN, A_VISC, A_AREA, A_DIAM, A_ROUGH, A_THERMAL,
+ A_COND) = layout(*AIR_SLOTS)
 N_AIR = len(AIR_SLOTS)
 
 #: fluid brake's state offsets and counts (``AirBrake.index``, int64): first pipe cell
 #: pressure, number of cells, first control-valve state, first driver's-valve state,
-#: the exhausted-air accumulator, number of brake-control points
+#: the exhausted-air accumulator, number of brake-control points. The pipe's states are
+#: its cell pressures (cells), face flows (cells - 1) and cell densities (cells), in
+#: that order from the first
 AIR_INDEX = ("pipe", "cells", "valves", "drivers", "exhausted", "control_points")
 (I_PIPE, I_CELLS, I_CV, I_DV, I_EXH, I_NCP) = layout(*AIR_INDEX)
 N_AIR_INDEX = len(AIR_INDEX)

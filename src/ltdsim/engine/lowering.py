@@ -15,7 +15,8 @@ import numpy as np
 from ltdsim.engine.couplers import N_CCOL, P_D0, lower_coupler
 from ltdsim.engine.integrators import BS23, Tableau, get_tableau
 from ltdsim.engine.layout import (
-    A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
+    A_AREA, A_ATM, A_COND, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_THERMAL,
+    A_VISC, BRAKE_FLUID,
     CMD_EMERGENCY, CMD_FAST_FILL, CMD_LAP, CMD_LEVEL, CMD_RELEASE, CMD_SERVICE, D_AW, D_BCTRL,
     D_BFULLSUM, D_BMODEL,
     D_BPLEN, D_BPOFF, D_BSHOEREF, D_BSLEN, D_BSOFF, D_BSTEP, D_BTAUA, D_BTAUR, D_BVS,
@@ -57,6 +58,9 @@ PRESSURE_SCALE = 1.0e6
 #: 1e-5 kg/s); a flow error of 1e-3 kg/s held over a 1 ms step moves a 7.5 m cell of a
 #: 32 mm pipe by about 15 Pa
 FLOW_SCALE = 10.0
+#: kg/(m^3 m): the pipe's cell densities enter it as density / DENSITY_SCALE (atol 1e-6
+#: -> 1e-5 kg/m^3, the density of 0.84 Pa of air at 20 C: as the pressures' 1 Pa)
+DENSITY_SCALE = 10.0
 #: largest number of brake commands (events) one run can issue
 MAX_EVENTS = 4096
 
@@ -92,7 +96,8 @@ class Lowered:
     energy: bool  # the run accounts for the energy (solver.energy)
     # the fluid brake (brake.model = "fluid"; empty for the lumped brake): gas and pipe
     # constants (layout.AIR_SLOTS), state offsets (layout.AIR_INDEX), cell lengths m,
-    # centre distances m, leak Cd x area per cell m^2, control-valve rows (one per
+    # centre distances m, leak Cd x area per cell m^2, cell volumes (the bore's and the
+    # side volumes: branch pipes, hoses) m^3, control-valve rows (one per
     # braked vehicle, brakevalves.CV_PARAMS), driver's-valve rows (one per brake-control
     # point, DV_PARAMS) and the cell each driver's valve feeds
     air_gas: np.ndarray = field(default_factory=lambda: np.zeros(N_AIR))
@@ -100,6 +105,7 @@ class Lowered:
     pipe_dx_cell: np.ndarray = field(default_factory=lambda: np.zeros(0))
     pipe_dx_face: np.ndarray = field(default_factory=lambda: np.zeros(0))
     pipe_leak: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    pipe_volume: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cv_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     dv_rows: np.ndarray = field(default_factory=lambda: np.zeros((0, 1)))
     dv_cell: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
@@ -351,7 +357,7 @@ def lower(s: Scenario) -> Lowered:
         fluid_extra, ny = _fluid_states(air, len(shoe_forces), len(control), ny, y0_extra,
                                         kinds)
         braked = veh[:, V_BZ] >= 0
-        veh[braked, V_BZ] += 2 * fluid_extra["pipe_dx_cell"].size - 1  # (the pipe before)
+        veh[braked, V_BZ] += 3 * fluid_extra["pipe_dx_cell"].size - 1  # (the pipe before)
         drv[D_BMODEL] = BRAKE_FLUID
     for key, col_off, col_len in (("time", D_BSOFF, D_BSLEN),
                                   ("position", D_BPOFF, D_BPLEN)):
@@ -374,6 +380,7 @@ def lower(s: Scenario) -> Lowered:
     scale = {"x": sv.atol, "v": sv.atol, "speed": sv.atol * SPEED_SCALE,
              "force": sv.atol * FORCE_SCALE, "fill": sv.atol,
              "pressure": sv.atol * PRESSURE_SCALE, "flow": sv.atol * FLOW_SCALE,
+             "density": sv.atol * DENSITY_SCALE,
              "position": sv.atol,
              # running totals of what the other states do; they feed nothing back
              "exhausted": np.inf, "energy": np.inf}
@@ -565,10 +572,13 @@ def full_service_pressure(cv_row: np.ndarray, dv_row: np.ndarray) -> float:
 
 
 def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
-    """The fluid brake's valve rows, initial valve states, pipe grid and gas row."""
-    from ltdsim.physics.air.brakepipe import air_viscosity, pipe_geometry
+    """The fluid brake's valve rows, initial valve states, pipe grid, cell volumes and gas
+    row."""
+    from ltdsim.physics.air.brakepipe import (
+        THERMAL_MODES, air_conductivity, air_viscosity, cell_volumes, pipe_geometry)
     from ltdsim.physics.air.brakevalves import (
-        DV_PARAMS, control_valve_init, control_valve_row, driver_valve_init, driver_valve_row)
+        CVP_VBRANCH, DV_PARAMS, control_valve_init, control_valve_row, driver_valve_init,
+        driver_valve_row)
     from ltdsim.scenario import valve_tables
 
     fl = s.brake.fluid
@@ -585,10 +595,17 @@ def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
     gas[A_AREA] = np.pi * fl.pipe_diameter ** 2 / 4.0
     gas[A_DIAM] = fl.pipe_diameter
     gas[A_ROUGH] = fl.roughness
+    gas[A_THERMAL] = THERMAL_MODES.index(a.thermal)
+    gas[A_COND] = air_conductivity(a.temperature) if a.conductivity is None else a.conductivity
+    # every vehicle's hoses beyond the bore; a braked one's branch pipe and valve bracket
+    side = np.array([fl.hose_volume + (cv_row[CVP_VBRANCH] if v.brake is not None else 0.0)
+                     for v in s.vehicles])
     cv_init = control_valve_init(p_abs, cv_row, a.atmosphere)
     dv_init = driver_valve_init(p_abs, dv_row, a.atmosphere)
     return {
         "geometry": geom, "gas": gas, "p_abs": p_abs, "cv_row": cv_row, "dv_row": dv_row,
+        "volume": cell_volumes(geom.dx_cell, gas[A_AREA], side, fl.cells_per_vehicle),
+        "rho": p_abs / (a.gas_constant * a.temperature),
         "cv_init": [float(x) for x in cv_init], "dv_init": [float(x) for x in dv_init],
         # a state that starts at a pressure (Pa abs) is one; the others are positions (-)
         "cv_kinds": [_valve_kind(x) for x in cv_init],
@@ -603,9 +620,10 @@ def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
 
 def lower_fluid_parts(s: Scenario) -> dict:
     """The fluid brake's pipe grid (``geometry``), valve rows (``cv_row``, ``dv_row``),
-    leak per cell (``leak``, m^2), charged pipe pressure (``p_abs``) and main-reservoir
-    pressure (``p_main``, Pa abs) of scenario ``s`` (``brake.model = "fluid"``), without
-    lowering the rest (the step check's input)."""
+    leak per cell (``leak``, m^2), cell volumes (``volume``, m^3), charged pipe pressure
+    (``p_abs``) and density (``rho``, kg/m^3), gas row (``gas``, layout.AIR_SLOTS) and
+    main-reservoir pressure (``p_main``, Pa abs) of scenario ``s`` (``brake.model =
+    "fluid"``), without lowering the rest (the step check's input)."""
     lengths = np.array([v.length for v in s.vehicles])
     return _fluid_rows(s, lengths, _brake_control_vehicles(s.consists()))
 
@@ -628,7 +646,8 @@ def _fluid_states(air: dict, n_valves: int, n_control: int, ny: int, y0_extra: l
     """Append the pipe, driver's-valve and exhausted-air states after the control valves
     (already appended at ``[ny - n_valves N_CV, ny)``); returns the ``Lowered`` fields
     of the fluid brake and the new state count. Layout (common15.md): pipe cell
-    pressures (nc), face flows (nc - 1), control valves, driver's valves, exhausted air."""
+    pressures (nc), face flows (nc - 1), cell densities (nc), control valves, driver's
+    valves, exhausted air."""
     geom = air["geometry"]
     nc = geom.dx_cell.size
     n_cv = len(air["cv_init"])
@@ -637,13 +656,13 @@ def _fluid_states(air: dict, n_valves: int, n_control: int, ny: int, y0_extra: l
     index = np.zeros(N_AIR_INDEX, dtype=np.int64)
     index[I_PIPE] = z_cv
     index[I_CELLS] = nc
-    index[I_CV] = z_cv + 2 * nc - 1
-    pipe = [air["p_abs"]] * nc + [0.0] * (nc - 1)
+    index[I_CV] = z_cv + 3 * nc - 1
+    pipe = [air["p_abs"]] * nc + [0.0] * (nc - 1) + [air["rho"]] * nc
     at = len(y0_extra) - n_valves * n_cv
     y0_extra[at:at] = pipe
     k_at = len(kinds) - n_valves * n_cv
-    kinds[k_at:k_at] = ["pressure"] * nc + ["flow"] * (nc - 1)
-    ny += 2 * nc - 1
+    kinds[k_at:k_at] = ["pressure"] * nc + ["flow"] * (nc - 1) + ["density"] * nc
+    ny += 3 * nc - 1
     index[I_DV] = ny
     for _ in range(n_control):
         y0_extra.extend(air["dv_init"])
@@ -659,6 +678,7 @@ def _fluid_states(air: dict, n_valves: int, n_control: int, ny: int, y0_extra: l
         "pipe_dx_cell": np.ascontiguousarray(geom.dx_cell, dtype=float),
         "pipe_dx_face": np.ascontiguousarray(geom.dx_face, dtype=float),
         "pipe_leak": air["leak"],
+        "pipe_volume": np.ascontiguousarray(air["volume"], dtype=float),
         "cv_rows": np.tile(air["cv_row"], (n_valves, 1)),
         "dv_rows": np.tile(air["dv_row"], (n_control, 1)),
         "dv_cell": air["dv_cell"],

@@ -51,6 +51,7 @@ import numpy as np
 from scipy.linalg import eigvalsh_tridiagonal
 
 from ltdsim.engine.integrators import TABLEAUX
+from ltdsim.engine.layout import A_COND, A_THERMAL
 
 #: a step above this share of the largest stable step is warned about
 WARN_SHARE = 0.8
@@ -380,14 +381,18 @@ def fluid_rates(scenario) -> tuple[float, list[tuple[str, float]]]:
     parts = lower_fluid_parts(scenario)
     a = scenario.brake.air
     fl = scenario.brake.fluid
+    gas_row = parts["gas"]
     area = math.pi * fl.pipe_diameter ** 2 / 4.0
     dx = parts["geometry"].dx_cell
     rt = a.gas_constant * a.temperature
     p = np.full(dx.size, parts["p_abs"])
-    q = np.full(dx.size - 1, EMERGENCY_MACH * math.sqrt(rt) * area * parts["p_abs"] / rt)
-    pipe = pipe_max_rate(p, q, (area, dx, parts["geometry"].dx_face, fl.pipe_diameter,
-                                fl.roughness, parts["viscosity"], parts["leak"]),
-                         (a.gamma, a.gas_constant, a.temperature, 0.0, a.linear_ratio))
+    rho = np.full(dx.size, parts["rho"])
+    q = np.full(dx.size - 1, EMERGENCY_MACH * math.sqrt(a.gamma * rt) * area * parts["rho"])
+    pipe = pipe_max_rate(p, q, rho, (area, dx, parts["geometry"].dx_face, parts["volume"],
+                                     fl.pipe_diameter, fl.roughness, parts["viscosity"],
+                                     gas_row[A_COND], parts["leak"]),
+                         (a.gamma, a.gas_constant, a.temperature, 0.0, a.linear_ratio,
+                          gas_row[A_THERMAL]))
     cell = float(area * dx.min())
     p_max = max(parts["p_abs"], parts["p_main"])
     gas = dict(gamma=a.gamma, r_gas=a.gas_constant, temperature=a.temperature,

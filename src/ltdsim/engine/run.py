@@ -79,7 +79,7 @@ def recording_bytes(scenario: Scenario) -> int:
         # the pipe's cells and faces, every valve's states, the pipe's work array
         per_sample += n * (("bp" in keep) + ("ar" in keep) + ("bc" in keep)) + ("ax" in keep)
         cells = n * scenario.brake.fluid.cells_per_vehicle
-        ny += 2 * cells + braked * N_CV + nk * N_DV + 1
+        ny += 3 * cells + braked * N_CV + nk * N_DV + 1
     stages = 4 if sv.adaptive else get_tableau(sv.method).stages
     air_steps = sv.adaptive and scenario.brake.model == "fluid"
     ny += nd * N_DRIVE_STATES

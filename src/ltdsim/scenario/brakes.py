@@ -10,6 +10,7 @@ from typing import Any, Literal, Union
 from pydantic import (
     Field,
     ValidationError,
+    field_validator,
     model_validator,
 )
 
@@ -54,6 +55,8 @@ _Control = quantity(5e-4, 0.1, "m^3", zero=True, why="UIC control reservoir, 0.5
 _Emergency = quantity(1e-3, 0.5, "m^3", zero=True, why="AAR emergency reservoir, 1-500 l")
 _Bulb = quantity(1e-5, 0.01, "m^3", zero=True, why="quick-service bulb, 0.01-10 l")
 _Chamber = quantity(1e-4, 0.02, "m^3", zero=True, why="quick-action chamber, 0.1-20 l")
+_Branch = quantity(1e-4, 0.01, "m^3", zero=True,
+                   why="branch pipe, dirt collector and pipe bracket, 0.1-10 l")
 _MaxCylinder = quantity(0.5e5, 10e5, "Pa gauge", zero=True,
                         why="UIC full-service cylinder, 3.8 bar typical")
 _FullDrop = quantity(1e3, 5e5, "Pa", zero=True,
@@ -118,6 +121,7 @@ class ControlValveTable(_Strict):
     control_cutoff: _Cutoff | None = None
     emergency_inshot: _Inshot | None = None
     emergency_build_diameter: _Diameter | None = None
+    branch_volume: _Branch | None = None
 
 
 class DriverValveTable(_Strict):
@@ -337,18 +341,45 @@ class FluidBrake(_Strict):
         None, ge=3e5, le=1e6,
         description="pipe pressure the driver's valves charge to (none: the preset's "
                     "driver_valve.regulated), Pa (gauge)")
+    hose_volume: float = Field(
+        2.0e-4, ge=0.0, le=5e-3,
+        description="volume per vehicle that its hoses, couplings, angle cocks and tees add "
+                    "to its pipe's bore (capacitance without inertance: it slows the "
+                    "pipe's waves); default two 1 3/8 in x 22 in hoses (AAR S-400) of 34.9 "
+                    "mm bore around a 31.8 mm pipe, with the couplings' cavities, m^3")
+
+
+#: the air temperatures the fluid brake takes, K: -40 C to +50 C, the ambient range of
+#: rolling stock (EN 50125-1's classes T1-T3 span -40 C to +45 C outside the vehicle, as
+#: summarised at railwaynews.net, 2024; beyond them a customer's class Tx; ltdsim's
+#: bound)
+AIR_TEMPERATURE_RANGE = (233.15, 323.15)
 
 
 class Air(_Strict):
-    """Gas data of the fluid air brake: isothermal air."""
+    """Gas data of the fluid air brake: the ambient temperature (the pipe wall's and the
+    valves' air), the pipe air's thermal mode, the gas properties."""
 
     gamma: float = Field(1.4, gt=1.0, le=1.67,
                          description="ratio of specific heats (the orifice law only), -")
     gas_constant: float = Field(287.05, gt=200.0, le=400.0,
                                 description="specific gas constant of air, J/(kg K) (dry air)")
-    temperature: float = Field(293.15, ge=223.15, le=333.15,
-                               description="temperature of the air everywhere (isothermal), "
-                                           "K")
+    temperature: float = Field(293.15, ge=AIR_TEMPERATURE_RANGE[0],
+                               le=AIR_TEMPERATURE_RANGE[1],
+                               description="ambient temperature: the brake pipe's wall and "
+                                           "the air at the start, the valves' air throughout "
+                                           "(233.15-323.15 K is -40 C to +50 C), K")
+    thermal: Literal["wall", "adiabatic", "isothermal"] = Field(
+        "wall", description="the brake pipe air's energy: wall (an energy balance per cell "
+                            "with heat exchange to the wall: fronts near-adiabatic, slow "
+                            "charging near the wall's temperature), adiabatic (no exchange), "
+                            "isothermal (the air always at temperature: waves at sqrt(R T), "
+                            "the model before the energy balance)")
+    conductivity: float | None = Field(
+        None, ge=0.0, le=0.1,
+        description="thermal conductivity of air for the wall's heat exchange, W/(m K) "
+                    "(none: Sutherland's law at temperature, 0.0257 at 20 C; 0: no "
+                    "exchange)")
     atmosphere: float = Field(101325.0, ge=5e4, le=1.1e5,
                               description="atmospheric pressure, Pa (absolute)")
     linear_ratio: float = Field(0.995, ge=0.9, lt=1.0,
@@ -360,6 +391,18 @@ class Air(_Strict):
         description="dynamic viscosity of air for the pipe's wall friction (none: "
                     "Sutherland's law at temperature, 1.81e-5 at 20 C; 0: frictionless), "
                     "Pa s")
+
+    @field_validator("temperature", mode="before")
+    @classmethod
+    def _temperature_range(cls, value):
+        # (before the bounds: their message names one end; this one names both, in K
+        # and C; a value of the wrong type is left to the type's message)
+        lo, hi = AIR_TEMPERATURE_RANGE
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and \
+                not lo <= value <= hi:
+            raise ValueError(f"must be within {lo:g} K to {hi:g} K (-40 C to +50 C; the key "
+                             f"is in kelvin: this is {value - 273.15:.4g} C)")
+        return value
 
 
 #: the lumped brake's keys a valve preset's [lumped] table may give (``brake.calibration``)

@@ -62,6 +62,14 @@ def no_effect(sc) -> list[tuple[str, str]]:
                                         f"= 'fluid'), where {why}; {key} is read by the "
                                         "lumped brake (brake.model = 'lumped'): leave it "
                                         "out"))
+        thermal = sc.brake.air.thermal
+        if thermal != "wall":
+            out.append(("brake.air.conductivity",
+                        f"has no effect with brake.air.thermal = '{thermal}' (the pipe's "
+                        + ("air is held at the wall's temperature" if thermal == "isothermal"
+                           else "air exchanges no heat with the wall")
+                        + "); conductivity is read with thermal = 'wall': set that, or "
+                        "leave it out"))
     if not any((loco.drive or sc.traction.drive) == "induction" for loco in sc.consists()):
         for key in ("motor", "creep"):
             out.append((f"traction.{key}", "has no effect: no consist uses the induction "

@@ -22,8 +22,10 @@ from ltdsim.engine.kernel.rk import (
 )
 from ltdsim.engine.kernel.tables import _interp_at
 from ltdsim.engine.layout import (
-    A_AREA, A_ATM, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_VISC, BRAKE_FLUID,
-    CMD_EMERGENCY, CMD_FAST_FILL, CMD_LAP, CMD_LEVEL, CMD_RELEASE, D_BFULLSUM, D_BMODEL, D_BSHOEREF, D_BTAUA,
+    A_AREA, A_ATM, A_COND, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_THERMAL,
+    A_VISC, BRAKE_FLUID,
+    CMD_EMERGENCY, CMD_FAST_FILL, CMD_LAP, CMD_LEVEL, CMD_RELEASE, D_BFULLSUM, D_BMODEL,
+    D_BSHOEREF, D_BTAUA,
     D_BTAUR, D_BVS, EV_KIND, EV_LEVEL, EV_TIME, EV_VALUE, I_CELLS, I_DV, I_EXH, I_NCP,
     I_PIPE, V_BAREA, V_BCELL, V_BCV, V_BDELAY, V_BFRIC, V_BFULL, V_BGAIN, V_BINVSHOES,
     V_BMU, V_BNTAB, V_BSHOE, V_BSPRING, V_BTAB, V_BZ,
@@ -151,12 +153,13 @@ def fluid_command(t, events, n_events, full):
 @njit(cache=True, _nrt=False, forceinline=True)
 def _air_rates(t, y, events, n_events, tr, w, dy):
     """The fluid-dynamic air brake's pneumatics at time ``t`` (s): the rates of the brake
-    pipe's cell pressures (Pa/s) and face flows (kg/s^2)
+    pipe's cell pressures (Pa/s), face flows (kg/s^2) and cell densities (kg/(m^3 s))
     (:func:`~ltdsim.physics.air.brakepipe.pipe_rates`), of every driver's valve's and
     control valve's states (:func:`~ltdsim.physics.air.brakevalves.driver_valve`,
-    ``control_valve``) and of the air exhausted to atmosphere (kg/s: vents, exhausts and
-    leaks, less what compressors deliver), written to ``dy`` at the states' places in
-    ``y`` (``tr.air.index``). The driver's valves all take the latest command
+    ``control_valve``, each at its cell's pressure and air temperature ``p / (rho R)``)
+    and of the air exhausted to atmosphere (kg/s: vents, exhausts and leaks, less what
+    compressors deliver), written to ``dy`` at the states' places in ``y``
+    (``tr.air.index``). The driver's valves all take the latest command
     (:func:`fluid_command`). Reads and writes the fluid brake's states only.
 
     Inlined by LLVM like the other subsystems, and so are the laws it calls (the pipe,
@@ -170,6 +173,7 @@ def _air_rates(t, y, events, n_events, tr, w, dy):
     idx = air.index
     veh = tr.veh
     inflow = w.inflow
+    feed = w.feed
     n = veh.shape[0]
     gamma = gas[A_GAMMA]
     r_gas = gas[A_RGAS]
@@ -179,33 +183,41 @@ def _air_rates(t, y, events, n_events, tr, w, dy):
     zp = idx[I_PIPE]
     nc = idx[I_CELLS]
     zq = zp + nc
+    zr = zq + nc - 1
     zd = idx[I_DV]
     zx = idx[I_EXH]
     p = y[zp:zq]
+    rho = y[zr:zr + nc]
     for c in range(nc):
         inflow[c] = 0.0
+        feed[c] = 0.0
     exhausted = 0.0
     handle, reduction = fluid_command(t, events, n_events, air.dv[0, DVP_FULL])
     for c in range(idx[I_NCP]):
         o = zd + c * N_DV
         cell = air.dv_cell[c]
-        into, out = driver_valve(p[cell], y[o:o + N_DV], air.dv[c], handle, reduction, gamma,
-                                 r_gas, temp, atm, r_lin, dy[o:o + N_DV])
+        into, out, fed = driver_valve(p[cell], p[cell] / (r_gas * rho[cell]), y[o:o + N_DV],
+                                      air.dv[c], handle, reduction, gamma, r_gas, temp, atm,
+                                      r_lin, dy[o:o + N_DV])
         inflow[cell] += into
+        feed[cell] += fed
         exhausted += out - driver_valve_compressor(y[o:o + N_DV], air.dv[c])
     for i in range(n):
         zb = int(veh[i, V_BZ])
         if zb < 0:
             continue
         cell = int(veh[i, V_BCELL])
-        draw, out = control_valve(p[cell], y[zb:zb + N_CV], air.cv[int(veh[i, V_BCV])], gamma,
-                                  r_gas, temp, atm, r_lin, dy[zb:zb + N_CV])
+        draw, out, fed = control_valve(p[cell], p[cell] / (r_gas * rho[cell]),
+                                       y[zb:zb + N_CV], air.cv[int(veh[i, V_BCV])], gamma,
+                                       r_gas, temp, atm, r_lin, dy[zb:zb + N_CV])
         inflow[cell] -= draw
+        feed[cell] += fed
         exhausted += out
-    leak = pipe_rates(p, y[zq:zq + nc - 1], inflow,
-                      (gas[A_AREA], air.dx_cell, air.dx_face, gas[A_DIAM], gas[A_ROUGH],
-                       gas[A_VISC], air.leak), (gamma, r_gas, temp, atm, r_lin),
-                      dy[zp:zq], dy[zq:zq + nc - 1])
+    leak = pipe_rates(p, y[zq:zq + nc - 1], rho, inflow, feed,
+                      (gas[A_AREA], air.dx_cell, air.dx_face, air.volume, gas[A_DIAM],
+                       gas[A_ROUGH], gas[A_VISC], gas[A_COND], air.leak),
+                      (gamma, r_gas, temp, atm, r_lin, gas[A_THERMAL]),
+                      dy[zp:zq], dy[zq:zq + nc - 1], dy[zr:zr + nc])
     dy[zx] = exhausted + leak
 
 

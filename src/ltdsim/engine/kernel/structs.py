@@ -95,6 +95,7 @@ class AirBrake(NamedTuple):
     dx_cell: np.ndarray  # (cells,) cell lengths, m
     dx_face: np.ndarray  # (cells - 1,) distances between cell centres, m
     leak: np.ndarray  # (cells,) leak to atmosphere per cell, Cd x area m^2
+    volume: np.ndarray  # (cells,) cell volumes (bore and side volumes), m^3
     cv: np.ndarray  # (braked vehicles, CV_PARAMS) control-valve rows
     dv: np.ndarray  # (brake-control points, DV_PARAMS) driver's-valve rows
     dv_cell: np.ndarray  # (brake-control points,) int64 cell each driver's valve feeds
@@ -215,6 +216,7 @@ class Work(NamedTuple):
     tres: np.ndarray  # (n, 2) on that segment its grade force and the magnitude of its
     #                   curve resistance, N (_resistance)
     inflow: np.ndarray  # (pipe cells,) fluid brake: mass flow into each pipe cell, kg/s
+    feed: np.ndarray  # (pipe cells,) fluid brake: the valves' feed into each cell, kg/s
     air: np.ndarray  # (N_AIR_ROWS, ny) or (N_AIR_ROWS, 0): the fluid brake's own steps in
     #                  run_adaptive (AIR_* rows; the pneumatic states at their places in y)
     air_step: np.ndarray  # one AIR_STEPPER record
@@ -254,7 +256,8 @@ class Outputs(NamedTuple):
 def make_train(low) -> Train:
     """:class:`Train` of a :class:`~ltdsim.engine.lowering.Lowered` scenario."""
     air = AirBrake(gas=low.air_gas, index=low.air_index, dx_cell=low.pipe_dx_cell,
-                   dx_face=low.pipe_dx_face, leak=low.pipe_leak, cv=low.cv_rows,
+                   dx_face=low.pipe_dx_face, leak=low.pipe_leak, volume=low.pipe_volume,
+                   cv=low.cv_rows,
                    dv=low.dv_rows, dv_cell=low.dv_cell)
     drive = Drive(of=low.drive_of, z=low.drive_z, motor=low.drive_motor,
                   ctrl=low.drive_ctrl, ws=low.drive_ws, rail=low.drive_rail,
@@ -311,7 +314,7 @@ def _work_shapes(n: int, ny: int, stages: int, n_consists: int, cells: int,
             "force": ((nc,), f8), "defl": ((nc,), f8), "res": ((n,), f8),
             "bforce": ((n,), f8), "fcons": ((n_consists,), f8), "sig": ((1,), SIGNALS),
             "hints": ((n + 2 + n_consists,), i8), "tkey": ((n,), i8),
-            "tres": ((n, 2), f8), "inflow": ((cells,), f8),
+            "tres": ((n, 2), f8), "inflow": ((cells,), f8), "feed": ((cells,), f8),
             "air": ((N_AIR_ROWS, ny if air_steps else 0), f8),
             "air_step": ((1,), AIR_STEPPER), "ddem": ((drives,), f8),
             "dsig": ((drives, N_DRIVE_SIGNALS), f8), "dout": ((drives, N_OUT), f8),

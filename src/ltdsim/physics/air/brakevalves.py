@@ -5,9 +5,18 @@ Both are written as right-hand sides of ordinary differential equations: the val
 volumes (reservoirs, cylinder, chambers) hold air whose pressure is a state, and every
 flow between two volumes, or from a volume to the atmosphere, passes an orifice and
 follows :func:`ltdsim.physics.air.pneumatics.orifice_flow` (compressible, choked and
-unchoked, linear very near equal pressures). Air is isothermal at the temperature ``T``
-(K) everywhere, so a volume ``V`` (m^3) at pressure ``p`` (Pa, absolute) holds the mass
-``p V / (R T)`` (kg) and its pressure changes at ``dp/dt = R T / V x (mass flow in)``.
+unchoked, linear very near equal pressures). The valves' air is isothermal at the
+ambient temperature ``T`` (K), the brake pipe wall's (``brake.air.temperature``), so a
+volume ``V`` (m^3) at pressure ``p`` (Pa, absolute) holds the mass ``p V / (R T)`` (kg)
+and its pressure changes at ``dp/dt = R T / V x (mass flow in)``: reservoirs, chambers
+and cylinders are small and thick-walled, and the air that enters one from the pipe
+takes its wall's temperature (their fast adiabatic transients are left out, see
+docs/brake-valves.md). The brake pipe's air has a temperature of its own
+(:mod:`ltdsim.physics.air.brakepipe`, ``t_bp``): an orifice that the pipe's air passes
+through takes the pipe's temperature on its upstream side
+(:func:`ltdsim.physics.air.pneumatics.orifice_flow_between`), and the valves report the
+air they feed into the pipe (at ``T``) apart from what they draw, so that the pipe's
+energy balance takes each at its own temperature.
 
 Valve positions are continuous states, never flags switched inside the right-hand side,
 so that every Runge-Kutta stage sees a right-hand side fixed by the states alone:
@@ -96,7 +105,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ltdsim.physics.air.pneumatics import orifice_conductance, orifice_flow
+from ltdsim.physics.air.pneumatics import (
+    orifice_conductance, orifice_flow, orifice_flow_between,
+)
 
 # --- handle codes of the driver's valve -------------------------------------------------
 H_RELEASE = 0
@@ -156,13 +167,15 @@ CV_PARAMS = (
     "control_cutoff",          # UIC: cylinder pressure closing the control-reservoir choke, Pa gauge
     "emergency_inshot",        # cylinder pressure up to which an emergency fills freely, Pa gauge
     "emergency_build_cda",     # beyond it each reservoir feeds the cylinder through this, m^2
+    "branch_volume",           # volume on the pipe's side of the valve (branch pipe, dirt collector,
+                               # pipe bracket), m^3: the brake pipe's capacitance, not the valve's
 )
 N_CV_PARAMS = len(CV_PARAMS)
 _CV = {name: i for i, name in enumerate(CV_PARAMS)}
 (CVP_FAMILY, CVP_VAUX, CVP_VCYL, CVP_VCTRL, CVP_VER, CVP_VQS, CVP_VQA, CVP_CHARGE, CVP_CTRL, CVP_ERCHARGE,
  CVP_APPLY, CVP_RELEASE, CVP_QS, CVP_QSVENT, CVP_QSCYL, CVP_QA, CVP_QAVENT, CVP_VENT, CVP_EMAPPLY,
  CVP_MAXCYL, CVP_FULLDROP, CVP_THRESH, CVP_RELTHRESH, CVP_BAND, CVP_TPISTON, CVP_QSLIMIT, CVP_TRIP,
- CVP_TRIPBAND, CVP_TEM, CVP_CUTOFF, CVP_INSHOT, CVP_EMBUILD) = range(N_CV_PARAMS)
+ CVP_TRIPBAND, CVP_TEM, CVP_CUTOFF, CVP_INSHOT, CVP_EMBUILD, CVP_VBRANCH) = range(N_CV_PARAMS)
 
 # --- driver's brake valve ---------------------------------------------------------------
 DV_STATES = (
@@ -224,6 +237,16 @@ def _through(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
 
 
 @njit(cache=True, forceinline=True)
+def _through_between(opening, p1, p2, cda, gamma, r_gas, t1, t2, r_lin):
+    """As :func:`_through` between air at ``t1`` (side 1) and ``t2`` (side 2), K: the
+    upstream side's temperature (:func:`~ltdsim.physics.air.pneumatics.orifice_flow_between`),
+    kg/s."""
+    if opening <= 0.0:
+        return 0.0
+    return opening * orifice_flow_between(p1, p2, cda, gamma, r_gas, t1, t2, r_lin)
+
+
+@njit(cache=True, forceinline=True)
 def _checked(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
     """As :func:`_through` behind a check valve: flow from ``p1`` to ``p2`` only, kg/s."""
     if opening <= 0.0 or p1 <= p2:
@@ -232,28 +255,34 @@ def _checked(opening, p1, p2, cda, gamma, r_gas, temperature, r_lin):
 
 
 @njit(cache=True, forceinline=True)
-def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds):
+def control_valve(p_bp, t_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds):
     """Rates of one control valve's states and its exchange with the pipe.
 
     Parameters
     ----------
     p_bp : float
         Brake-pipe pressure at the valve, Pa abs.
+    t_bp : float
+        Temperature of the brake pipe's air at the valve, K (``temperature`` where the
+        pipe is isothermal): the upstream temperature of every flow out of the pipe.
     s : float64 array (N_CV)
         The valve's states, :data:`CV_STATES` (pressures Pa abs, positions -).
     par : float64 array (N_CV_PARAMS)
         Its parameter row, :data:`CV_PARAMS` (see :func:`control_valve_row`).
     gamma, r_gas, temperature, atmosphere, r_lin : float
-        Ratio of specific heats (-), gas constant J/(kg K), temperature K, atmosphere
-        Pa abs, the orifice law's linear-region ratio (-).
+        Ratio of specific heats (-), gas constant J/(kg K), the valve's (the ambient)
+        temperature K, atmosphere Pa abs, the orifice law's linear-region ratio (-).
     ds : float64 array (N_CV)
         Written: the states' rates (Pa/s, 1/s).
 
     Returns
     -------
-    (draw, exhaust) : (float, float)
-        Mass flow drawn from the pipe (kg/s; includes the emergency vent) and mass flow
-        to the atmosphere (kg/s). The valve's air mass changes at ``draw - exhaust``.
+    (draw, exhaust, feed) : (float, float, float)
+        Net mass flow drawn from the pipe (kg/s; includes the emergency vent), mass
+        flow to the atmosphere (kg/s) and the part of the exchange that flows from the
+        valve into the pipe (kg/s, >= 0: a control or quick-action chamber, or an AAR
+        auxiliary reservoir, above a falling pipe), at ``temperature``; the pipe gives
+        ``draw + feed`` at ``t_bp``. The valve's air mass changes at ``draw - exhaust``.
     """
     rt = r_gas * temperature
     pa = s[CV_AUX]
@@ -272,11 +301,11 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     f_qa_vent = 0.0
     f_vent = 0.0
     if par[CVP_VQA] > 0.0:
-        f_qa = orifice_flow(p_bp, pk, par[CVP_QA], gamma, r_gas, temperature, r_lin)
+        f_qa = orifice_flow_between(p_bp, pk, par[CVP_QA], gamma, r_gas, t_bp, temperature,
+                                    r_lin)
         f_qa_vent = _through(e, pk, atmosphere, par[CVP_QAVENT], gamma, r_gas,
                              temperature, r_lin)
-        f_vent = _through(e, p_bp, atmosphere, par[CVP_VENT], gamma, r_gas, temperature,
-                          r_lin)
+        f_vent = _through(e, p_bp, atmosphere, par[CVP_VENT], gamma, r_gas, t_bp, r_lin)
         e_target = _ramp((pk - p_bp - par[CVP_TRIP]) / par[CVP_TRIPBAND])
         ds[CV_EM] = (e_target - s[CV_EM]) / par[CVP_TEM]
         ds[CV_QA] = rt / par[CVP_VQA] * (f_qa - f_qa_vent)
@@ -293,11 +322,10 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
         target = par[CVP_MAXCYL] * min(max((pr - p_bp - par[CVP_THRESH]) / span, 0.0), 1.0)
         x_target = min(max((target - pcg) / band, -1.0), 1.0)
         # the auxiliary reservoir charges through a check valve, always
-        f_charge = _checked(1.0, p_bp, pa, par[CVP_CHARGE], gamma, r_gas, temperature,
-                            r_lin)
+        f_charge = _checked(1.0, p_bp, pa, par[CVP_CHARGE], gamma, r_gas, t_bp, r_lin)
         if par[CVP_VCTRL] > 0.0:
-            f_ctrl = _through(_ramp(1.0 - pcg / par[CVP_CUTOFF]), p_bp, pr, par[CVP_CTRL],
-                              gamma, r_gas, temperature, r_lin)
+            f_ctrl = _through_between(_ramp(1.0 - pcg / par[CVP_CUTOFF]), p_bp, pr,
+                                      par[CVP_CTRL], gamma, r_gas, t_bp, temperature, r_lin)
             ds[CV_CTRL] = rt / par[CVP_VCTRL] * f_ctrl
         else:
             ds[CV_CTRL] = 0.0
@@ -310,8 +338,8 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
         pull_apply = _ramp((d - par[CVP_THRESH] * (1.0 - max(x, 0.0))) / band)
         pull_release = _ramp((-d - par[CVP_RELTHRESH]) / band)
         x_target = pull_apply - pull_release + (1.0 - pull_apply - pull_release) * min(x, 0.0)
-        f_charge = _through(-x, p_bp, pa, par[CVP_CHARGE], gamma, r_gas, temperature,
-                            r_lin)
+        f_charge = _through_between(-x, p_bp, pa, par[CVP_CHARGE], gamma, r_gas, t_bp,
+                                    temperature, r_lin)
         ds[CV_CTRL] = 0.0
     # staged emergency build-up: past the inshot pressure, an emergency fills the cylinder
     # from each reservoir through the build-up choke only (0: not staged)
@@ -319,7 +347,7 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     if par[CVP_EMBUILD] > 0.0:
         staged = e * (1.0 - _ramp((par[CVP_INSHOT] - pcg) / band))
     if par[CVP_VER] > 0.0:
-        f_er = _checked(-x, p_bp, pe, par[CVP_ERCHARGE], gamma, r_gas, temperature, r_lin)
+        f_er = _checked(-x, p_bp, pe, par[CVP_ERCHARGE], gamma, r_gas, t_bp, r_lin)
         f_em = _checked(e, pe, pc, (1.0 - staged) * par[CVP_EMAPPLY]
                         + staged * par[CVP_EMBUILD], gamma, r_gas, temperature, r_lin)
         ds[CV_ER] = rt / par[CVP_VER] * (f_er - f_em)
@@ -340,13 +368,13 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     # quick service takes pipe air into the cylinder
     uic = par[CVP_FAMILY] == FAMILY_UIC
     f_qs_cyl = _checked(qs, pa if uic else p_bp, pc, par[CVP_QSCYL], gamma, r_gas,
-                        temperature, r_lin)
+                        temperature if uic else t_bp, r_lin)
     f_qs_aux = f_qs_cyl if uic else 0.0
     f_qs_pipe = 0.0 if uic else f_qs_cyl
     f_qs = 0.0
     f_qs_vent = 0.0
     if par[CVP_VQS] > 0.0:
-        f_qs = _checked(qs, p_bp, pq, par[CVP_QS], gamma, r_gas, temperature, r_lin)
+        f_qs = _checked(qs, p_bp, pq, par[CVP_QS], gamma, r_gas, t_bp, r_lin)
         f_qs_vent = orifice_flow(pq, atmosphere, par[CVP_QSVENT], gamma, r_gas, temperature,
                                  r_lin)
         ds[CV_QS] = rt / par[CVP_VQS] * (f_qs - f_qs_vent)
@@ -357,18 +385,22 @@ def control_valve(p_bp, s, par, gamma, r_gas, temperature, atmosphere, r_lin, ds
     ds[CV_CYL] = rt / par[CVP_VCYL] * (f_apply + f_em + f_qs_cyl - f_release)
     draw = f_charge + f_ctrl + f_er + f_qs + f_qs_pipe + f_qa + f_vent
     exhaust = f_release + f_qs_vent + f_qa_vent + f_vent
-    return draw, exhaust
+    feed = max(-f_charge, 0.0) + max(-f_ctrl, 0.0) + max(-f_qa, 0.0)
+    return draw, exhaust, feed
 
 
 @njit(cache=True, forceinline=True)
-def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atmosphere,
-                 r_lin, ds):
+def driver_valve(p_bp, t_bp, s, par, handle, reduction, gamma, r_gas, temperature,
+                 atmosphere, r_lin, ds):
     """Rates of one driver's brake valve's states and its exchange with the pipe.
 
     Parameters
     ----------
     p_bp : float
         Brake-pipe pressure where the valve feeds it, Pa abs.
+    t_bp : float
+        Temperature of the brake pipe's air there, K (the relay exhaust's and the
+        vent's upstream temperature).
     s : float64 array (N_DV)
         The valve's states, :data:`DV_STATES`.
     par : float64 array (N_DV_PARAMS)
@@ -392,9 +424,10 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
 
     Returns
     -------
-    (into_pipe, exhaust) : (float, float)
-        Net mass flow into the pipe (kg/s; feed minus relay exhaust minus vent) and
-        mass flow to the atmosphere (kg/s). The valve's air mass changes at
+    (into_pipe, exhaust, feed) : (float, float, float)
+        Net mass flow into the pipe (kg/s; feed minus relay exhaust minus vent), mass
+        flow to the atmosphere (kg/s) and the relay's feed from the main reservoir
+        into the pipe (kg/s, >= 0, at ``temperature``). The valve's air mass changes at
         ``compressor - into_pipe - exhaust`` (see :func:`driver_valve_compressor`).
     """
     rt = r_gas * temperature
@@ -434,9 +467,8 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
     # relay valve: the pipe follows the equalising reservoir
     z = (pe - p_bp) / par[DVP_RELBAND]
     feed = _checked(_ramp(z), pm, p_bp, par[DVP_FEED], gamma, r_gas, temperature, r_lin)
-    rex = _through(_ramp(-z), p_bp, atmosphere, par[DVP_EXH], gamma, r_gas, temperature,
-                   r_lin)
-    f_vent = _through(v, p_bp, atmosphere, par[DVP_VENT], gamma, r_gas, temperature, r_lin)
+    rex = _through(_ramp(-z), p_bp, atmosphere, par[DVP_EXH], gamma, r_gas, t_bp, r_lin)
+    f_vent = _through(v, p_bp, atmosphere, par[DVP_VENT], gamma, r_gas, t_bp, r_lin)
     f_fill = 0.0
     if handle == H_FAST_FILL and par[DVP_FASTFILL] > 0.0:  # (up to the overcharged pressure)
         z_fill = (atmosphere + par[DVP_REG] + par[DVP_OC] - p_bp) / par[DVP_RELBAND]
@@ -456,7 +488,7 @@ def driver_valve(p_bp, s, par, handle, reduction, gamma, r_gas, temperature, atm
         ds[DV_GOV] = 0.0
     ds[DV_MR] = rt / par[DVP_VMR] * (comp - f_erc - feed - f_fill)
     ds[DV_ER] = rt / par[DVP_VER] * (f_erc - f_ere)
-    return feed + f_fill - rex - f_vent, f_ere + rex + f_vent
+    return feed + f_fill - rex - f_vent, f_ere + rex + f_vent, feed + f_fill
 
 
 @njit(cache=True, forceinline=True)

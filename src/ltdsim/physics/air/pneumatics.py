@@ -25,8 +25,11 @@ nozzle law at ``r_lin``, continuous in value. The regularisation ratio is a para
 (data), as are the gas properties.
 
 All functions are signed: the flow is positive from the first pressure to the second
-and negative the other way; the upstream side is whichever pressure is higher, at the
-temperature ``T`` (the brake model is isothermal, so both sides are at ``T``).
+and negative the other way; the upstream side is whichever pressure is higher, and its
+temperature is the one the law takes: :func:`orifice_flow` has one temperature for both
+sides (two of the valves' volumes, both at the valves' temperature), and
+:func:`orifice_flow_between` one for each (the brake pipe's air, whose temperature moves
+with its pressure, against a valve's volume or the atmosphere).
 """
 
 from __future__ import annotations
@@ -98,3 +101,14 @@ def orifice_conductance(cd_area, gamma, r_gas, temperature, r_lin):
         return 0.0
     return (cd_area / math.sqrt(r_gas * temperature) * _nozzle(r_lin, gamma)
             / (1.0 - r_lin))
+
+
+@njit(cache=True, forceinline=True)
+def orifice_flow_between(p1, p2, cd_area, gamma, r_gas, t1, t2, r_lin):
+    """:func:`orifice_flow` from ``p1`` at temperature ``t1`` to ``p2`` at ``t2`` (Pa abs,
+    K): the law takes the upstream side's temperature, ``t1`` when ``p1 > p2`` and ``t2``
+    otherwise, kg/s. Continuous across equal pressures (the flow is 0 there from either
+    side), so a flow that reverses meets no jump."""
+    if p1 >= p2:
+        return orifice_flow(p1, p2, cd_area, gamma, r_gas, t1, r_lin)
+    return orifice_flow(p1, p2, cd_area, gamma, r_gas, t2, r_lin)
