@@ -333,7 +333,6 @@ PAPER_TOML = ROOT / "scenarios" / "paper.toml"
       "--absorptivity", "0.8", "--slack", "-1"], "--slack", "[0, 1] m"),
     (["reduce", "--preset", "mt-2", "--mass", "-1"], "--mass", "(0, 1e+08] kg"),
     (["reduce", "--preset", "mt-2", "--dt", "0"], "--dt", "(0, 0.01] s"),
-    (["reduce", "--preset", "mt-2", "--workers", "0"], "--workers", "or -1 (all cores)"),
     (["reduce", "--preset", "mt-2", "--maxiter", "0"], "--maxiter", "from 1 to 1000000"),
     (["reduce", "--preset", "mt-2", "--seed", "-2"], "--seed", "from 0 to"),
     (["sweep", PAPER_TOML, "--workers", "-3"], "--workers", "from 1 to 1024"),

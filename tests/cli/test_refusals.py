@@ -59,7 +59,7 @@ def test_reduce_refuses_an_existing_toml_before_the_fit(tmp_path, monkeypatch):
 
 
 def test_reduce_refuses_a_search_that_could_outlast_max_time(tmp_path):
-    msg = cli_refused("reduce", "--preset", "mt-2", "--max-time", "0.01", "--workers", "1",
+    msg = cli_refused("reduce", "--preset", "mt-2", "--max-time", "0.01",
                       "--plot", tmp_path / "fig.png")
     assert "--max-time: the search takes up to about" in msg, msg
     assert "beyond the limit of 0.01 s" in msg and "lower --maxiter" in msg

@@ -1,4 +1,4 @@
-"""The valves of the fluid air brake on a single-vehicle rig (tests/physics/_valve_rig.py: one
+"""The valves of the fluid air brake on a single-vehicle rig (ltdsim.engine.brakerig: one
 driver's valve feeding one vehicle's pipe volume, one control valve drawing from it,
 classical Runge-Kutta at a fixed 1 ms step), against the UIC timing windows, the
 isothermal mass balance (Boyle's law), the published North American pressures and the
@@ -11,7 +11,7 @@ from importlib.resources import files
 
 import numpy as np
 import pytest
-from _valve_rig import (
+from ltdsim.engine.brakerig import (
     ATM,
     I_CV,
     I_DV,

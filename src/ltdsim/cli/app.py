@@ -1,5 +1,5 @@
 """The ``ltdsim`` application: the commands of each group (``run``, ``gear``, ``curve``,
-``analyse``, ``sweep``, ``study``) gathered into one typer app, in the order ``ltdsim
+``analyse``, ``sweep``, ``study``, ``brake-test``) gathered into one typer app, in the order ``ltdsim
 --help`` lists them, and the ``--version`` flag.
 
 Usage: ``ltdsim COMMAND ...`` (the console entry) or ``python -m ltdsim.cli.app COMMAND``.
@@ -12,7 +12,7 @@ from typing import Annotated
 
 import typer
 
-from ltdsim.cli import analyse, curve, gear, run, study, sweep
+from ltdsim.cli import analyse, braketest, curve, gear, run, study, sweep
 from ltdsim.cli.common import console
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -55,6 +55,7 @@ app.command()(analyse.modal)
 app.command()(analyse.spectrum)
 app.command()(analyse.sysid)
 app.command()(study.study)
+app.command("brake-test")(braketest.brake_test)
 
 
 def main() -> None:  # pragma: no cover - console entry

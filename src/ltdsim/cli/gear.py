@@ -215,7 +215,6 @@ def reduce(
     fade: Annotated[str, typer.Option(help="what the fitted k2 fades with: deflection (v_c "
                                            "in m, the default law) or rate (v_c in m/s)")
                     ] = "deflection",
-    workers: Annotated[int, typer.Option(help="parallel processes (-1: all cores)")] = -1,
     maxiter: Annotated[int, typer.Option(help="generations at most")] = 1000,
     seed: Annotated[int, typer.Option(help="random seed")] = 0,
     plot: Annotated[Path, typer.Option("--plot", "-p", help="figure file (.png, .svg, "
@@ -228,8 +227,10 @@ def reduce(
 ) -> None:
     """Fit the simplified coupler to a detailed gear under the study's chain of sines.
 
-    Before the search one rig run is timed and the longest the search can take is
-    printed (it usually converges much earlier)."""
+    Before the search one generation's rig runs are timed, in this process and through
+    one process per core, and the faster way is taken (the result is the same either
+    way); the longest the search can take is printed (it usually converges much
+    earlier)."""
     from ltdsim.analysis.reduction import Search, reduce_gear
 
     try:
@@ -238,8 +239,6 @@ def reduce(
         check_new(toml, "--toml")
         check_number("--mass", mass, 0.0, 1e8, lo_open=True, unit="kg")
         check_number("--dt", dt, 0.0, 1e-2, lo_open=True, unit="s")
-        if workers != -1:
-            check_number("--workers", workers, 1, 1024, whole=True, also="-1 (all cores)")
         check_number("--maxiter", maxiter, 1, 1_000_000, whole=True)
         check_number("--seed", seed, 0, 2**32 - 1, whole=True)
         if max_time is not None:
@@ -265,7 +264,7 @@ def reduce(
                 show.info(est.line())
 
             update = show.bar("fitting", maxiter, "generations at most")
-            result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=workers,
+            result = reduce_gear(target, rig=rig, mass=mass, dt=dt, workers=-1,
                                  search=Search(maxiter=maxiter, seed=seed), fade=fade,
                                  progress=lambda g, n, c: update(g), before_search=announce)
     except ScenarioError as exc:

@@ -1,8 +1,13 @@
-"""A single-vehicle brake rig for the valve tests: one driver's valve feeding one volume
-(a vehicle's brake pipe, isothermal at the valves' temperature, as on a test stand whose
-pipe the valves' timing is read from) that one control valve draws from; integrated by
-classical Runge-Kutta at a fixed step (which keeps linear invariants such as the air mass
-to rounding)."""
+"""The single-vehicle brake stand (``ltdsim brake-test`` and the valve tests): one
+driver's valve feeding one volume (a vehicle's brake pipe, 15 m of 1 1/4 in. pipe,
+isothermal at the valves' 20 C, as on a test stand whose pipe the valves' timing is read
+from) that one control valve draws from; integrated by classical Runge-Kutta at a fixed
+step (1 ms by default, which keeps linear invariants such as the air mass to rounding).
+
+States (:data:`N_Y`): the pipe's pressure (Pa abs), the control valve's and the driver's
+valve's states (:data:`~ltdsim.physics.air.brakevalves.CV_STATES`, ``DV_STATES``), the
+air exhausted and the air fed by a compressor (kg). Commands are rows of (time s,
+handle code ``H_*``, service reduction Pa, forced vent Cd x area m^2)."""
 
 import math
 
@@ -84,6 +89,7 @@ def rig_run(y0, cv, dv, t_end, h, times, handles, reductions, vents, pipe_volume
 
 
 def rows(name):
+    """The parameter rows (control valve, driver's valve) of the valve preset ``name``."""
     preset = load_preset("brakes", name)
     return bv.control_valve_row(preset["control_valve"]), bv.driver_valve_row(
         preset["driver_valve"])
