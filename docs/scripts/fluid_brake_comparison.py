@@ -2,9 +2,10 @@
 docs/fluid-brake-comparison.md: the heavy-haul train's emergency stop from 18 m/s with
 the lumped brake (scenarios/heavy-haul.toml, case emergency) and with the fluid brake
 (scenarios/heavy-haul-fluid.toml, cases emergency-remote and emergency-lead), with the
-remote consist venting and from the lead alone; and two lumped runs given the fluid
-brake's emergency cylinder force and fill time, which say where the differences come
-from. Every run 90 s, recorded every 0.05 s.
+remote consist venting and from the lead alone; a lumped run given the fluid brake's
+emergency cylinder force, and the lumped twins of the fluid runs with the
+constants calibrated on the fluid brake (``brake.calibration = "aar"``), which say where
+the differences come from. Every run 90 s, recorded every 0.05 s.
 
     PYTHONPATH=src python docs/scripts/fluid_brake_comparison.py [--results DIR]
 
@@ -22,6 +23,7 @@ import numpy as np
 import xarray as xr
 
 import ltdsim
+from ltdsim.analysis.calibration import lumped_twin
 from ltdsim.results.io import save_result
 from ltdsim.viz.plotting import WIDTH, _save, plt
 from ltdsim.results.summary import fluid_brake_summary, stopping
@@ -98,7 +100,9 @@ def main(argv=None) -> None:
         "lumped, lead only": lambda: lumped_case(False),
         "fluid (AAR), lead only": lambda: fluid_case("emergency-lead"),
         "lumped x1.21 force, lead only": lambda: lumped_case(False, 1.207),
-        "lumped x1.21 force, fill 1.44 s, lead only": lambda: lumped_case(False, 1.207, 1.44),
+        "lumped calibrated (aar), remote venting": lambda: lumped_twin(
+            fluid_case("emergency-remote")),
+        "lumped calibrated (aar), lead only": lambda: lumped_twin(fluid_case("emergency-lead")),
     }
     results = {}
     for label, make in runs.items():
