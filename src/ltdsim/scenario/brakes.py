@@ -121,6 +121,7 @@ class ControlValveTable(_Strict):
     control_cutoff: _Cutoff | None = None
     emergency_inshot: _Inshot | None = None
     emergency_build_diameter: _Diameter | None = None
+    accelerated_release_diameter: _Diameter | None = None
     branch_volume: _Branch | None = None
 
 

@@ -167,6 +167,7 @@ CV_PARAMS = (
     "control_cutoff",          # UIC: cylinder pressure closing the control-reservoir choke, Pa gauge
     "emergency_inshot",        # cylinder pressure up to which an emergency fills freely, Pa gauge
     "emergency_build_cda",     # beyond it each reservoir feeds the cylinder through this, m^2
+    "accelerated_release_cda",  # AAR: emergency reservoir -> pipe at the start of a release, m^2
     "branch_volume",           # volume on the pipe's side of the valve (branch pipe, dirt collector,
                                # pipe bracket), m^3: the brake pipe's capacitance, not the valve's
 )
@@ -175,7 +176,8 @@ _CV = {name: i for i, name in enumerate(CV_PARAMS)}
 (CVP_FAMILY, CVP_VAUX, CVP_VCYL, CVP_VCTRL, CVP_VER, CVP_VQS, CVP_VQA, CVP_CHARGE, CVP_CTRL, CVP_ERCHARGE,
  CVP_APPLY, CVP_RELEASE, CVP_QS, CVP_QSVENT, CVP_QSCYL, CVP_QA, CVP_QAVENT, CVP_VENT, CVP_EMAPPLY,
  CVP_MAXCYL, CVP_FULLDROP, CVP_THRESH, CVP_RELTHRESH, CVP_BAND, CVP_TPISTON, CVP_QSLIMIT, CVP_TRIP,
- CVP_TRIPBAND, CVP_TEM, CVP_CUTOFF, CVP_INSHOT, CVP_EMBUILD, CVP_VBRANCH) = range(N_CV_PARAMS)
+ CVP_TRIPBAND, CVP_TEM, CVP_CUTOFF, CVP_INSHOT, CVP_EMBUILD, CVP_ACCREL,
+ CVP_VBRANCH) = range(N_CV_PARAMS)
 
 # --- driver's brake valve ---------------------------------------------------------------
 DV_STATES = (
@@ -346,11 +348,18 @@ def control_valve(p_bp, t_bp, s, par, gamma, r_gas, temperature, atmosphere, r_l
     staged = 0.0
     if par[CVP_EMBUILD] > 0.0:
         staged = e * (1.0 - _ramp((par[CVP_INSHOT] - pcg) / band))
+    f_acc = 0.0
     if par[CVP_VER] > 0.0:
         f_er = _checked(-x, p_bp, pe, par[CVP_ERCHARGE], gamma, r_gas, t_bp, r_lin)
         f_em = _checked(e, pe, pc, (1.0 - staged) * par[CVP_EMAPPLY]
                         + staged * par[CVP_EMBUILD], gamma, r_gas, temperature, r_lin)
-        ds[CV_ER] = rt / par[CVP_VER] * (f_er - f_em)
+        if par[CVP_ACCREL] > 0.0:
+            # accelerated release: while a release has just begun (the piston in release,
+            # the cylinder still above the quick-service limit) emergency-reservoir air
+            # goes into the pipe, a local rise that carries the release down the train
+            acc = max(-x, 0.0) * _ramp(pcg / par[CVP_QSLIMIT] - 1.0)
+            f_acc = _checked(acc, pe, p_bp, par[CVP_ACCREL], gamma, r_gas, temperature, r_lin)
+        ds[CV_ER] = rt / par[CVP_VER] * (f_er - f_em - f_acc)
     else:
         ds[CV_ER] = 0.0
     ds[CV_PISTON] = (x_target - s[CV_PISTON]) / par[CVP_TPISTON]
@@ -383,9 +392,9 @@ def control_valve(p_bp, t_bp, s, par, gamma, r_gas, temperature, atmosphere, r_l
 
     ds[CV_AUX] = rt / par[CVP_VAUX] * (f_charge - f_apply - f_qs_aux)
     ds[CV_CYL] = rt / par[CVP_VCYL] * (f_apply + f_em + f_qs_cyl - f_release)
-    draw = f_charge + f_ctrl + f_er + f_qs + f_qs_pipe + f_qa + f_vent
+    draw = f_charge + f_ctrl + f_er + f_qs + f_qs_pipe + f_qa + f_vent - f_acc
     exhaust = f_release + f_qs_vent + f_qa_vent + f_vent
-    feed = max(-f_charge, 0.0) + max(-f_ctrl, 0.0) + max(-f_qa, 0.0)
+    feed = max(-f_charge, 0.0) + max(-f_ctrl, 0.0) + max(-f_qa, 0.0) + f_acc
     return draw, exhaust, feed
 
 
@@ -531,6 +540,7 @@ _CV_ORIFICES = {
     "vent_diameter": "vent_cda",
     "emergency_apply_diameter": "emergency_apply_cda",
     "emergency_build_diameter": "emergency_build_cda",
+    "accelerated_release_diameter": "accelerated_release_cda",
 }
 _DV_ORIFICES = {
     "charge_diameter": "charge_cda",
@@ -756,6 +766,7 @@ def valve_max_rate(par: np.ndarray, kind: str, cell_volume: float, p_max: float,
                   pair(par[CVP_QA], cell_volume, vk), pair(par[CVP_QAVENT], vk, atmos),
                   pair(par[CVP_VENT], cell_volume, atmos), pair(par[CVP_EMAPPLY], ve, vc),
                   pair(par[CVP_EMBUILD], ve if ve > 0.0 else va, vc),
+                  pair(par[CVP_ACCREL], ve, cell_volume),
                   1.0 / par[CVP_TPISTON], 1.0 / par[CVP_TEM]]
         f_full = _choked(max(par[CVP_APPLY], par[CVP_RELEASE]), p_max, gamma, r_gas, temperature)
         if par[CVP_FAMILY] == FAMILY_UIC:
