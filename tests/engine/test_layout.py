@@ -179,6 +179,24 @@ def test_every_vehicle_traction_driver_and_brake_key_lands_in_its_named_column()
     placed[PID] |= {"kp", "ki", "kd", "n", "ts", "integrator", "filter", "anti_windup"}
     placed[Brake] |= {"level_step", "apply_time_constant", "release_time_constant",
                       "standstill_speed"}
+    # a calibration takes the lumped keys from the valve preset's [lumped] table (the
+    # keys given beside it win); an emergency command asks for emergency_level
+    from ltdsim.data import load_preset
+    from ltdsim.engine.lowering import brake_schedule
+
+    table = load_preset("brakes", "aar")["lumped"]
+    d1 = scenario_dict()
+    d1["brake"] = {"calibration": "aar", "release_time_constant": 7.5}
+    d1["driver"] = dict(d1["driver"], brake_commands=[{"time": 1.0, "handle": "emergency"}])
+    sc1 = build(d1)
+    low1 = lower(sc1)
+    assert low1.drv[col(D, "apply_tau")] == table["apply_time_constant"]
+    assert low1.drv[col(D, "release_tau")] == 7.5
+    np.testing.assert_allclose(low1.veh[:, col(V, "brake_delay")],
+                               -low1.veh[:, col(V, "p0")] / table["propagation_speed"],
+                               rtol=1e-15)
+    assert [r[1] for r in brake_schedule(sc1, "time", None)] == [table["emergency_level"]]
+    placed[Brake] |= {"calibration", "emergency_level"}
 
     missing = {cls.__name__: sorted(set(cls.model_fields) - keys)
                for cls, keys in placed.items() if set(cls.model_fields) - keys}

@@ -348,7 +348,8 @@ def test_presets_ship_and_bad_keys_are_refused():
         text = files("ltdsim.data").joinpath("brakes", f"{name}.toml").read_text()
         tomllib.loads(text)
         for line in text.splitlines():
-            if "=" in line and not line.lstrip().startswith("#") and "family" not in line:
+            if ("=" in line and not line.lstrip().startswith("#") and "family" not in line
+                    and "source =" not in line):  # (a window's source is its own text)
                 assert "#" in line, line
 
 
