@@ -118,7 +118,9 @@ def lumped_twin(scenario, calibration: str | None = None, constants: dict | None
     track, driver and commands; ``brake.model = "lumped"`` with ``calibration`` (a valve
     preset's name, default the scenario's own preset; its ``[lumped]`` table sets the
     constants); each braked vehicle keeps ``cylinder_force`` (N, the full-service piston
-    force both models then share) and drops the keys only the fluid brake reads."""
+    force both models then share) and drops the keys only the fluid brake reads.
+    ``constants`` (the keys :func:`lumped_from_fluid` returns) are given to the lumped
+    brake instead of a calibration."""
     from ltdsim.scenario import Scenario
 
     if scenario.brake.model != "fluid":
