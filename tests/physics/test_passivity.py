@@ -103,7 +103,14 @@ def test_no_gear_returns_more_energy_than_it_takes_over_a_closed_cycle(name, dat
     ds = drive_deflection(params, t, d, dt=dt)
     work = _loop_work(ds)
     scale = float(np.max(np.abs(ds.force.values))) * float(np.ptp(d)) + 1e-9
-    assert work >= -1e-5 * scale, (name, points, speeds, work)
+    if work < -1e-5 * scale:
+        # the loop's area converges with the step (to first order): a deficit the step
+        # makes shrinks at a quarter of it, one the gear makes does not (two cushioning
+        # units, 11.7 mm at 1-2 m/s and back at 0.03 m/s: -0.0155 J at 2e-5 s, -0.0006 J
+        # at 5e-6 s, -0.0002 J at 2.5e-6 s, on a scale of 1 kJ)
+        t, d = _path(points, speeds, dt / 4.0)
+        fine = _loop_work(drive_deflection(params, t, d, dt=dt / 4.0))
+        assert fine >= -1e-5 * scale and fine > work, (name, points, speeds, work, fine)
 
 
 def test_eq9_read_with_a_rate_fade_returns_energy_over_a_fast_load_and_slow_release():
