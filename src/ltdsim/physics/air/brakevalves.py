@@ -283,7 +283,8 @@ def control_valve(p_bp, t_bp, s, par, gamma, r_gas, temperature, atmosphere, r_l
         Net mass flow drawn from the pipe (kg/s; includes the emergency vent), mass
         flow to the atmosphere (kg/s) and the part of the exchange that flows from the
         valve into the pipe (kg/s, >= 0: a control or quick-action chamber, or an AAR
-        auxiliary reservoir, above a falling pipe), at ``temperature``; the pipe gives
+        auxiliary reservoir, above a falling pipe; an AAR valve's accelerated release),
+        at ``temperature``; the pipe gives
         ``draw + feed`` at ``t_bp``. The valve's air mass changes at ``draw - exhaust``.
     """
     rt = r_gas * temperature
