@@ -7,7 +7,8 @@ constants of their own; docs/airbrake.md)."""
 import pytest
 
 import ltdsim
-from ltdsim.analysis.calibration import lumped_from_fluid, lumped_twin, service_pressure
+from ltdsim.analysis.calibration import lumped_from_fluid, lumped_twin
+from ltdsim.engine.lowering import service_pressure
 from ltdsim.data import load_preset
 from ltdsim.physics.air import brakevalves as bv
 from ltdsim.results.summary import stopping

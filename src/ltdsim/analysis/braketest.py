@@ -66,8 +66,8 @@ class Check:
 
 
 def _window(table: dict, key: str):
-    """``(low, high, source)`` of a ``[brake_test]`` entry ``{range = [lo, hi], source}``
-    (either bound may be absent: ``low`` / ``high`` alone)."""
+    """``(low, high, source)`` of a ``[brake_test]`` entry ``{low, high, source}``
+    (either bound may be absent)."""
     entry = table.get(key)
     if entry is None:
         return None, None, "no window in the preset"

@@ -24,9 +24,9 @@ lumped brake needs to stop the same train in the same distance:
 * ``minimum_level`` (-): the same for the minimum reduction.
 
 The cylinder pressures of a full and a minimum service are the valve law's end states
-(:func:`service_pressure`: the UIC distributor's graduated law; an AAR valve's Boyle
-equalisation of auxiliary reservoir and cylinder, with the pipe air of its quick service
-neglected), so only the emergency needs a run. The numbers that ship in the valve presets'
+(:func:`ltdsim.engine.lowering.service_pressure`: the UIC distributor's graduated law; an
+AAR valve's Boyle equalisation of auxiliary reservoir and cylinder, with the pipe air of
+its quick service neglected), so only the emergency needs a run. The numbers that ship in the valve presets'
 ``[lumped]`` tables were made by ``docs/scripts/lumped_calibration.py``.
 """
 
@@ -35,27 +35,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from ltdsim.engine.lowering import service_pressure
 from ltdsim.physics.air import brakevalves as bv
 from ltdsim.results.summary import fluid_brake_summary, stopping
-
-
-def service_pressure(cv_row: np.ndarray, dv_row: np.ndarray, reduction: float) -> float:
-    """Cylinder pressure (Pa gauge) a control valve settles at after a service reduction
-    of ``reduction`` (Pa) from the regulated pressure of the driver's valve ``dv_row``:
-    UIC, the graduated law up to ``max_cylinder``; AAR, the auxiliary reservoir's
-    equalisation with the cylinder (Boyle's law, both at one temperature, the cylinder
-    filled until the reservoir has come down to the pipe)."""
-    if cv_row[bv.CVP_FAMILY] == bv.FAMILY_UIC:
-        span = cv_row[bv.CVP_FULLDROP] - cv_row[bv.CVP_THRESH]
-        return float(cv_row[bv.CVP_MAXCYL]
-                     * min(max((reduction - cv_row[bv.CVP_THRESH]) / span, 0.0), 1.0))
-    va, vc = cv_row[bv.CVP_VAUX], cv_row[bv.CVP_VCYL]
-    regulated = dv_row[bv.DVP_REG]
-    # the reservoir falls from the regulated pressure to the pipe's, regulated - reduction:
-    # the cylinder takes that air, p_c V_c = reduction V_aux (gauge: the atmosphere cancels),
-    # until it equalises with the reservoir
-    equalised = regulated * va / (va + vc)
-    return float(min(reduction * va / vc, equalised))
 
 
 def lumped_from_fluid(ds, scenario) -> dict[str, float]:

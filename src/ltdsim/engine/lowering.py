@@ -549,26 +549,38 @@ def _drive_fields(rows: list[dict], n_cons: int) -> dict:
 
 
 
-def full_service_pressure(cv_row: np.ndarray, dv_row: np.ndarray) -> float:
-    """Brake-cylinder pressure of a full service, Pa gauge, of the control valve
-    ``cv_row`` (:data:`ltdsim.physics.air.brakevalves.CV_PARAMS`) under the driver's valve
+def service_pressure(cv_row: np.ndarray, dv_row: np.ndarray, reduction: float) -> float:
+    """Brake-cylinder pressure, Pa gauge, that the control valve ``cv_row``
+    (:data:`ltdsim.physics.air.brakevalves.CV_PARAMS`) settles at after a service
+    reduction of ``reduction`` Pa from the regulated pressure of the driver's valve
     ``dv_row`` (``DV_PARAMS``).
 
-    UIC (three-pressure) valves: their ``max_cylinder``. AAR (triple-valve) valves: the
-    auxiliary reservoir's air that the full-service reduction ``r`` moves into the
-    cylinder, ``r V_aux / V_cyl``, at most the equalisation of the two volumes from the
-    regulated pressure ``p_reg``, ``p_reg V_aux / (V_aux + V_cyl)`` (Boyle's law at
-    constant temperature; the quick-service draw from the pipe is left out)."""
+    UIC (three-pressure) valves: the graduated law, ``max_cylinder`` from ``full_drop``
+    on. AAR (triple-valve) valves: the auxiliary reservoir's air that the reduction ``r``
+    moves into the cylinder, ``r V_aux / V_cyl``, at most the equalisation of the two
+    volumes from the regulated pressure ``p_reg``, ``p_reg V_aux / (V_aux + V_cyl)``
+    (Boyle's law at constant temperature; the quick-service draw from the pipe is left
+    out)."""
     from ltdsim.physics.air.brakevalves import CV_PARAMS, DV_PARAMS, FAMILY_UIC
     from ltdsim.scenario.brakes import equalisation_pressure
 
     cv = dict(zip(CV_PARAMS, cv_row))
     dv = dict(zip(DV_PARAMS, dv_row))
     if cv["family"] == FAMILY_UIC:
-        return float(cv["max_cylinder"])
+        span = cv["full_drop"] - cv["threshold"]
+        return float(cv["max_cylinder"] * min(max((reduction - cv["threshold"]) / span, 0.0),
+                                              1.0))
     va, vc = cv["auxiliary_volume"], cv["cylinder_volume"]
-    return float(min(dv["full_reduction"] * va / vc,
-                     equalisation_pressure(dv["regulated"], va, vc)))
+    return float(min(reduction * va / vc, equalisation_pressure(dv["regulated"], va, vc)))
+
+
+def full_service_pressure(cv_row: np.ndarray, dv_row: np.ndarray) -> float:
+    """Brake-cylinder pressure of a full service, Pa gauge (:func:`service_pressure` of
+    the driver's valve's ``full_reduction``: a UIC valve's ``max_cylinder``, since the
+    valve tables' relations keep ``full_drop`` within the full reduction)."""
+    from ltdsim.physics.air.brakevalves import DVP_FULL
+
+    return service_pressure(cv_row, dv_row, dv_row[DVP_FULL])
 
 
 def _fluid_rows(s: Scenario, lengths: np.ndarray, control: list[int]) -> dict:
