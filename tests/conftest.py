@@ -146,3 +146,60 @@ def traced_peak(call):
     finally:
         tracemalloc.stop()
     return out, peak
+
+
+# ------------------------------------------------- one compile for the test workers
+#: what the workers' kernels are compiled from: the study's fixed-step case, the
+#: heavy-haul trip's adaptive case and the gear rig (most tests call one of these three)
+WARM = ("scenarios/paper.toml", "scenarios/heavy-haul.toml", "rig")
+_WARM_CODE = """
+import sys
+from ltdsim.engine.warmup import gear_rig_kernel, scenario_kernels, warm_up
+from ltdsim.scenario import load_scenario
+w = sys.argv[1]
+warm_up([gear_rig_kernel()] if w == "rig" else scenario_kernels([load_scenario(w)]))
+"""
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_configure(config):
+    """With pytest-xdist's workers (``-n 2``), compile the kernels most tests use once,
+    before the workers start, each kernel in a process of its own (side by side on the
+    cores); otherwise every worker would compile the same kernels at the same time.
+    Reports every 10 s while it compiles; nothing to do when numba's cache holds them."""
+    import subprocess
+    import sys
+    import time
+
+    workers = getattr(config.option, "numprocesses", None)
+    if hasattr(config, "workerinput") or not workers or config.option.collectonly:
+        return
+    from ltdsim.engine.warmup import gear_rig_kernel, scenario_kernels
+    from ltdsim.scenario import load_scenario
+
+    def ready(w):
+        calls = [gear_rig_kernel()] if w == "rig" else scenario_kernels(
+            [load_scenario(ROOT / w)])
+        return all(c.ready() for c in calls)
+
+    todo = [w for w in WARM if not ready(w)]
+    if not todo:
+        return
+    say = config.pluginmanager.get_plugin("terminalreporter")
+    say = say.write_line if say is not None else print
+    say(f"compiling {len(todo)} kernels for the test workers (once per change of the "
+        "compiled sources; about a minute)")
+    t0 = time.perf_counter()
+    procs = [subprocess.Popen([sys.executable, "-c", _WARM_CODE,
+                               str(ROOT / w) if w != "rig" else w]) for w in todo]
+    try:
+        while any(p.poll() is None for p in procs):
+            time.sleep(0.5)
+            if int(time.perf_counter() - t0) % 10 == 0 and time.perf_counter() - t0 > 1:
+                say(f"  compiling: {time.perf_counter() - t0:.0f} s")
+                time.sleep(0.5)
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+    say(f"compiled in {time.perf_counter() - t0:.0f} s")
