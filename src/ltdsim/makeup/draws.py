@@ -15,13 +15,12 @@ at random behind them.
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ltdsim.makeup.study import Study
+from ltdsim.makeup.study import Study, vehicle_dict
 
 
 @dataclass(frozen=True)
@@ -108,21 +107,6 @@ def draw_makeup(study: Study, i: int) -> Makeup:
 
 
 # ------------------------------------------------------------------- the train
-def vehicle_dict(study: Study, type_name: str, state: str) -> dict:
-    """The ``[[vehicles]]`` table of a wagon of ``type_name`` in ``state``: the base
-    vehicle's keys with the type's over them; named ``<type>-<state>``."""
-    t = next(t for t in study.spec.types if t.name == type_name)
-    v = copy.deepcopy(study.templates[type_name])
-    v["name"] = f"{type_name}-{state}"
-    if t.length is not None:
-        v["length"] = t.length
-    given = getattr(t, state).model_dump(mode="json", exclude_none=True)
-    if "mass" in given and "static_mass" not in given:
-        v["static_mass"] = None  # (the base's static mass belongs to its own mass)
-    v.update(given)
-    return v
-
-
 @dataclass(frozen=True)
 class Train:
     """A make-up as a train: each vehicle's base index (None for a wagon), its wagon
@@ -215,7 +199,7 @@ def coupler_limits(study: Study, train: Train) -> tuple[np.ndarray, np.ndarray]:
     n = len(train.wagon)
     lcf, ltf = np.full(n - 1, np.nan), np.full(n - 1, np.nan)
     for j in range(n - 1):
-        ends = [study.limits[w[0]] for w in (train.wagon[j], train.wagon[j + 1])
+        ends = [study.limits[w] for w in (train.wagon[j], train.wagon[j + 1])
                 if w is not None]
         if not ends:
             ends = [flat]

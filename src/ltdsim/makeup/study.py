@@ -10,6 +10,7 @@ dotted key and what is allowed (docs/makeup.md, "The study file").
 
 from __future__ import annotations
 
+import copy
 import math
 import re
 from dataclasses import dataclass, field
@@ -67,6 +68,19 @@ class WagonState(_Strict):
                                                          "vehicle's)")
     geometry: VehicleGeometry | None = Field(None, description="curving geometry (none: "
                                                                "the base vehicle's)")
+    limits: Union[str, "LimitTable"] | None = Field(
+        None, description="force limits of its couplers in this state: a shipped set "
+                          "(ltdsim/data/limits) or a table {lcf = N, ltf = N} (none: the "
+                          "type's limits); not a vehicle key")
+
+    @field_validator("limits")
+    @classmethod
+    def _known(cls, v):
+        return _known_limits(v)
+
+    def vehicle_keys(self) -> dict:
+        """The ``[[vehicles]]`` keys given (JSON types), without the limits."""
+        return self.model_dump(mode="json", exclude_none=True, exclude={"limits"})
 
 
 class LimitTable(_Strict):
@@ -85,6 +99,13 @@ class LimitTable(_Strict):
         return self
 
 
+def _known_limits(v):
+    if isinstance(v, str) and v not in limit_sets():
+        raise ValueError(f"unknown limit set {v!r}; available: "
+                         f"{', '.join(limit_sets()) or 'none'}")
+    return v
+
+
 def limit_sets() -> tuple[str, ...]:
     """Names of the shipped limit sets (``ltdsim/data/limits``)."""
     return preset_names(LIMITS_FAMILY)
@@ -96,6 +117,9 @@ def limit_table(limits: "str | LimitTable | None") -> LimitTable | None:
         return limits
     data = load_preset(LIMITS_FAMILY, limits)
     return LimitTable(**{k: float(data[k]) for k in ("lcf", "ltf") if k in data})
+
+
+WagonState.model_rebuild()
 
 
 class WagonType(_Strict):
@@ -115,8 +139,9 @@ class WagonType(_Strict):
                           "to the vehicle in front), as a [[couplers.override]] table "
                           "without index, e.g. {preset = 'mt-2'} (none: the base's default)")
     limits: Union[str, LimitTable] | None = Field(
-        None, description="force limits of its couplers: a shipped set (ltdsim/data/limits) "
-                          "or a table {lcf = N, ltf = N} (none: the study's [limits])")
+        None, description="force limits of its couplers, loaded and empty unless a state "
+                          "gives its own: a shipped set (ltdsim/data/limits) or a table "
+                          "{lcf = N, ltf = N} (none: the study's [limits])")
     loaded: WagonState = Field(WagonState(), description="its keys loaded")
     empty: WagonState = Field(WagonState(), description="its keys empty")
 
@@ -125,10 +150,7 @@ class WagonType(_Strict):
     @field_validator("limits")
     @classmethod
     def _known(cls, v):
-        if isinstance(v, str) and v not in limit_sets():
-            raise ValueError(f"unknown limit set {v!r}; available: "
-                             f"{', '.join(limit_sets()) or 'none'}")
-        return v
+        return _known_limits(v)
 
     @field_validator("coupler")
     @classmethod
@@ -297,11 +319,29 @@ class Study:
     wagons: int
     templates: dict[str, dict]
     consists: list[list[int]]
-    limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+    limits: dict[tuple[str, str], tuple[float, float]] = field(default_factory=dict)
 
     @property
     def seed(self) -> int:
         return self.spec.seed
+
+
+#: a key a validator's message starts with ("speed: required ..."), below its table
+_LEADING_KEY = re.compile(r"^([A-Za-z_][A-Za-z0-9_.]*): (.*)$", re.S)
+
+
+def study_problems(exc: ValidationError) -> list[tuple[str, str]]:
+    """The problems of a study file's ``ValidationError`` as ``(dotted key, message)``
+    (:func:`ltdsim.scenario.messages._problems`), a validator's message that names a
+    key of its table ("speed: required ...") given under that key."""
+    out = []
+    for key, msg in _problems(exc, StudyFile):
+        m = _LEADING_KEY.match(msg)
+        if m and not m.group(2).startswith(" "):
+            key = f"{key}.{m.group(1)}" if key else m.group(1)
+            msg = m.group(2)
+        out.append((key, msg))
+    return out
 
 
 def _fail(source: str, key: str, msg: str):
@@ -319,7 +359,7 @@ def load_study(path: str | Path) -> Study:
     try:
         spec = StudyFile.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(source, _problems(exc, StudyFile)) from None
+        raise ScenarioError(source, study_problems(exc)) from None
     target = path.parent / spec.scenario
     if target.resolve() == path.resolve():
         _fail(source, "scenario", "names this study file; give the scenario the make-ups "
@@ -360,15 +400,9 @@ def load_study(path: str | Path) -> Study:
         templates[t.name] = base.vehicles[i].model_dump(mode="json", exclude={"count"})
     study = Study(spec, base, source, wagons, templates, consists)
     for t in spec.types:
-        lim = limit_table(t.limits)
-        lcf = lim.lcf if lim is not None and lim.lcf is not None else \
-            (spec.limits.lcf if spec.limits is not None else None)
-        ltf = lim.ltf if lim is not None and lim.ltf is not None else \
-            (spec.limits.ltf if spec.limits is not None else None)
-        study.limits[t.name] = (math.nan if lcf is None else lcf,
-                                math.nan if ltf is None else ltf)
+        for state in ("loaded", "empty"):
+            study.limits[(t.name, state)] = limits_of(spec, t, state)
     # every make-up's vehicles, one per state of each type, must be valid vehicles
-    from ltdsim.makeup.draws import vehicle_dict
     from ltdsim.scenario import Vehicle
 
     for k, t in enumerate(spec.types):
@@ -379,6 +413,36 @@ def load_study(path: str | Path) -> Study:
                 raise ScenarioError(source, [(f"types.{k}.{state}" + (f".{key}" if key else ""),
                                               msg) for key, msg in _problems(exc)]) from None
     return study
+
+
+def vehicle_dict(study: Study, type_name: str, state: str) -> dict:
+    """The ``[[vehicles]]`` table of a wagon of ``type_name`` in ``state``: the base
+    vehicle's keys with the type's over them; named ``<type>-<state>``."""
+    t = next(t for t in study.spec.types if t.name == type_name)
+    v = copy.deepcopy(study.templates[type_name])
+    v["name"] = f"{type_name}-{state}"
+    if t.length is not None:
+        v["length"] = t.length
+    given = getattr(t, state).vehicle_keys()
+    if "mass" in given and "static_mass" not in given:
+        v["static_mass"] = None  # (the base's static mass belongs to its own mass)
+    v.update(given)
+    return v
+
+
+def limits_of(spec: StudyFile, t: WagonType, state: str) -> tuple[float, float]:
+    """The LCF and LTF limits of a wagon of type ``t`` in ``state``, N (NaN: none): the
+    state's limits, else the type's, else the study's ``[limits]``, key by key."""
+    out = []
+    for key in ("lcf", "ltf"):
+        value = None
+        for lim in (getattr(t, state).limits, t.limits, spec.limits):
+            table = limit_table(lim)
+            if table is not None and getattr(table, key) is not None:
+                value = getattr(table, key)
+                break
+        out.append(math.nan if value is None else float(value))
+    return out[0], out[1]
 
 
 def _consists(source: str, base: Scenario) -> list[list[int]]:
