@@ -22,6 +22,8 @@ from ltdsim.makeup.manoeuvres import manoeuvre_overrides
 from ltdsim.makeup.run import plan, run_plan
 from ltdsim.makeup.study import load_study
 
+from conftest import cli_refused
+
 
 
 #: a short heavy-haul train without distributed power: the heavy-haul scenario's
@@ -73,14 +75,15 @@ release_time_constant = 15.0
 mode = "force"
 """
 
-#: an empty ore wagon: 24 t, its resistance for that weight (modified Davis, as the
-#: scenario's loaded wagon), the loaded wagon's brake (no empty-load device)
+#: an empty ore wagon: 24 t, its resistance for that weight (modified Davis with the
+#: scenario's formula: a = (0.6 + 20/w) lb/ton, b = 0.01 lb/ton/mph, c as loaded), the
+#: loaded wagon's brake (no empty-load device)
 TYPES = """
 [[types]]
 name = "ore"
 vehicle = "wagon"
 loaded = { limits = "example-heavy-haul-loaded" }
-empty = { mass = 24000.0, davis = { a = 470.0, b = 2.6, c = 1.6 }, limits = "example-heavy-haul-empty" }
+empty = { mass = 24000.0, davis = { a = 427.0, b = 2.6, c = 1.6 }, limits = "example-heavy-haul-empty" }
 """
 
 
@@ -212,6 +215,20 @@ def test_rules_that_cannot_be_met_are_refused_naming_the_key(tmp_path):
     assert "study.toml: mix.0.share" in str(info.value) and "1" in str(info.value)
 
 
+@pytest.mark.parametrize("change, key, allowed", [
+    ("makeups = 8", "makeups", "greater than or equal to 1"),
+    ('speed = 18.0', "manoeuvres.0.speed", "required"),
+    ('kind = "emergency"', "manoeuvres.0.kind", "traction_start"),
+])
+def test_the_command_refuses_a_bad_study_in_one_line_naming_file_and_key(tmp_path, change,
+                                                                           key, allowed):
+    bad = {"makeups = 8": "makeups = 0", "speed = 18.0": "", 'kind = "emergency"':
+           'kind = "emergncy"'}[change]
+    p = write_study(tmp_path, SMALL.replace(change, bad))
+    text = cli_refused("makeup", p, "-o", tmp_path / "out")
+    assert f"study.toml: {key}" in text and allowed in text
+
+
 # ------------------------------------------- local and Dask, stopped and resumed
 SMALL = """
 makeups = 8
@@ -285,3 +302,32 @@ state = "loaded"
     at = slice(1, 6)  # couplers 2-6: locomotive 2 - wagon 1 to wagon 4 - wagon 5
     assert peaks["empties"][at].max() > peaks["uniform"][at].max()
     print({k: np.round(v / 1e3, 1).tolist() for k, v in peaks.items()})
+
+
+def test_a_crest_stretches_the_train_and_a_sag_bunches_it(tmp_path):
+    """Coasting at 10 m/s over a change of grade of 1 % either way where the lead
+    starts: over a crest the front runs away downhill first (more tension than over the
+    sag), in a sag the front climbs first and the rear runs in (more compression)."""
+    body = """
+makeups = 1
+seed = 0
+wagons = 20
+[[mix]]
+type = "ore"
+state = "loaded"
+[[manoeuvres]]
+name = "crest"
+kind = "crest"
+speed = 10.0
+duration = 40.0
+[[manoeuvres]]
+name = "sag"
+kind = "sag"
+speed = 10.0
+duration = 40.0
+"""
+    p = plan(write_study(tmp_path, body))
+    run_plan(p, tmp_path / "out", workers=1)
+    runs = mr.run_table(p, tmp_path / "out").set_index("manoeuvre")
+    assert runs.loc["crest", "max_ltf_kN"] > runs.loc["sag", "max_ltf_kN"]
+    assert runs.loc["sag", "max_lcf_kN"] > runs.loc["crest", "max_lcf_kN"]

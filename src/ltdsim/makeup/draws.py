@@ -212,9 +212,10 @@ def coupler_limits(study: Study, train: Train) -> tuple[np.ndarray, np.ndarray]:
 def features(makeup: Makeup) -> dict:
     """What a make-up is made of: its empties (count, -, and share, -), the share of
     (empty, loaded) pairs of wagons with the empty ahead (-: 1 when every empty stands
-    ahead of every load, 0 when behind them all, NaN without both), and its longest run
-    of neighbouring empty wagons (wagons, -; a remote consist between two wagons does
-    not break a run)."""
+    ahead of every load, 0 when behind them all, NaN without both), its longest run of
+    neighbouring empty wagons (wagons, -; a remote consist between two wagons does not
+    break a run) and the most empties standing right ahead of a remote consist (wagons,
+    -: the run of empties its pushing loads first; 0 without remote consists)."""
     e = makeup.empty
     n_e, n = int(e.sum()), len(e)
     # pairs (empty at i, loaded at j > i): for each load, the empties ahead of it
@@ -225,6 +226,12 @@ def features(makeup: Makeup) -> dict:
     for x in e:
         run = run + 1 if x else 0
         best = max(best, run)
+    before = 0
+    for at in makeup.remote_after:
+        k = at
+        while k > 0 and e[k - 1]:
+            k -= 1
+        before = max(before, at - k)
     return {"empties": n_e, "empty_share": n_e / n if n else math.nan,
             "empties_ahead_of_loads": pairs / total if total else math.nan,
-            "longest_empty_run": best}
+            "longest_empty_run": best, "empties_ahead_of_remote": before}

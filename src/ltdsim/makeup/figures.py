@@ -67,7 +67,7 @@ def distribution(p, ok: pd.DataFrame, path: Path) -> Path:
             ax.hist(g[col], bins=edges, histtype="stepfilled", alpha=0.35, color=c,
                     label=f"{man} ({len(g)} runs)")
             ax.hist(g[col], bins=edges, histtype="step", color=c)
-        _limit_lines(ax, limits[key], 2.0 * top, 1.0, "top")
+        _limit_lines(ax, limits[key], 2.0 * top, 0.5, "center")
         ax.set_xlabel(f"largest {_NAMES[key]} of a run [kN]")
         ax.set_ylabel("runs [-]")
         ax.yaxis.get_major_locator().set_params(integer=True)
@@ -113,13 +113,15 @@ def where(ok: pd.DataFrame, path: Path) -> Path:
 
 
 def features_figure(ok: pd.DataFrame, path: Path) -> Path:
-    """Each run's largest LCF against its make-up's empties ahead of loads and longest
-    run of empties."""
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    """Each run's largest LCF against its make-up's empties ahead of loads, longest run
+    of empties and empties right ahead of a remote consist."""
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
     for ax, (feat, label) in zip(axes, (
-            ("empties_ahead_of_loads", "empties ahead of loads: share of (empty, loaded) "
+            ("empties_ahead_of_loads", "empties ahead of loads:\nshare of (empty, loaded) "
                                        "pairs [-]"),
-            ("longest_empty_run", "longest run of neighbouring empties [wagons]"))):
+            ("longest_empty_run", "longest run of neighbouring empties [wagons]"),
+            ("empties_ahead_of_remote", "empties right ahead of a remote consist "
+                                        "[wagons]"))):
         for c, (man, g) in zip(COLOURS, ok.groupby("manoeuvre", sort=False)):
             ax.scatter(g[feat], g["max_lcf_kN"], s=14, color=c, alpha=0.7, label=man)
         ax.set_xlabel(label)

@@ -32,7 +32,8 @@ HEADERS = {
     "ltf_position_m": "from the front [m]", "ltf_time_s": "at [s]", "ltf_between": "between",
     "empties": "empties [-]", "empty_share": "empty share [-]",
     "empties_ahead_of_loads": "empties ahead of loads [-]",
-    "longest_empty_run": "longest run of empties [wagons]", "wagons": "wagons, front to rear",
+    "longest_empty_run": "longest run of empties [wagons]",
+    "empties_ahead_of_remote": "empties right ahead of a remote consist [wagons]", "wagons": "wagons, front to rear",
     "feature": "feature", "worst_mean": "mean, worst make-ups", "others_mean": "mean, others",
     "spearman_with_force": "Spearman rank correlation with the force [-]",
     "coupler": "coupler [-]", "median_damage": "median damage per run [-]",
@@ -114,7 +115,8 @@ def write_report(p: Plan, out: str | Path, title: str | None = None) -> Path:
                   "(at least one) with the largest LCF, worst first. <i>Empties ahead of "
                   "loads</i> is the share of (empty, loaded) pairs of wagons in which the "
                   "empty stands ahead: 1 when every empty is ahead of every load, 0 when "
-                  "behind them all.</p>",
+                  "behind them all; <i>empties right ahead of a remote consist</i> the run "
+                  "of empties a remote consist pushes on first.</p>",
                   table_html(_shown(worst["lcf"])), csv_table(worst["lcf"], out, "worst_lcf.csv"),
                   "<p class='note'>The same by the largest LTF.</p>",
                   table_html(_shown(worst["ltf"])), csv_table(worst["ltf"], out, "worst_ltf.csv"),

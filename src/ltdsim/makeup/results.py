@@ -24,7 +24,8 @@ from ltdsim.makeup.run import Plan
 from ltdsim.sweep.core import case_path
 
 #: the make-up features the tables and figures read (docs/makeup.md, "Results")
-FEATURES = ("empties", "empty_share", "empties_ahead_of_loads", "longest_empty_run")
+FEATURES = ("empties", "empty_share", "empties_ahead_of_loads", "longest_empty_run",
+            "empties_ahead_of_remote")
 #: the percentiles of the population's tables, %
 PERCENTILES = (50, 90, 95, 99)
 #: share of each manoeuvre's runs counted as its worst make-ups (at least one)
