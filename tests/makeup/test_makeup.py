@@ -331,3 +331,19 @@ duration = 40.0
     runs = mr.run_table(p, tmp_path / "out").set_index("manoeuvre")
     assert runs.loc["crest", "max_ltf_kN"] > runs.loc["sag", "max_ltf_kN"]
     assert runs.loc["sag", "max_lcf_kN"] > runs.loc["crest", "max_lcf_kN"]
+
+
+def test_the_shipped_studies_load_and_are_refused_as_scenarios_or_sweeps():
+    from conftest import ROOT
+    from ltdsim.sweep.core import load_sweep
+
+    studies = sorted((ROOT / "scenarios" / "makeup").glob("*.toml"))
+    assert len(studies) >= 2
+    for path in studies:
+        study = load_study(path)
+        pop = draw_population(study)
+        assert len(pop) == study.spec.makeups
+        for load in (ltdsim.load_scenario, load_sweep):
+            with pytest.raises(ScenarioError, match="make-up study file"):
+                load(path)
+    assert len(plan(ROOT / "scenarios" / "makeup" / "example.toml").sweep.cases) == 24

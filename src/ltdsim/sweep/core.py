@@ -174,6 +174,9 @@ def load_sweep(path: str | Path, progress: Checked | None = None) -> Sweep:
         swept = tuple(dict.fromkeys(k for c in cases for k in c.overrides))
         return _validated(Sweep(base, cases, source, swept), progress)
 
+    if "makeups" in data:
+        raise ScenarioError(source, [("", f"a make-up study file (its makeups key), not a "
+                                          f"sweep: run it with `ltdsim makeup {path}`")])
     unknown = sorted(set(data) - SWEEP_KEYS)
     if unknown:
         raise ScenarioError(source, [(k, f"unknown key; allowed: {', '.join(sorted(SWEEP_KEYS))}")
