@@ -58,7 +58,8 @@ def makeup(
 ) -> None:
     """Run a make-up study; resumable (finished runs are kept), local or on Dask."""
     from ltdsim.engine.run import TIME_LIMIT
-    from ltdsim.makeup.report import write_report
+    from ltdsim.makeup.report import PAGE_FILES, write_report, written_files
+    from ltdsim.results.outputs import check_outputs, record_outputs
     from ltdsim.makeup.run import plan, run_plan
     from ltdsim.sweep import core as sw
 
@@ -68,6 +69,9 @@ def makeup(
             check_number("--max-time", max_time, lo=0.0, unit="s", reason="0 means no limit")
         for folder in (output, output / "cases"):
             check_folder(folder)
+        # the page's files: a folder or someone else's file there is refused now, not
+        # after the runs (a study's own earlier page is written again: it resumes)
+        check_outputs(output, PAGE_FILES, "makeup")
         with Display(err_console) as show:
             p = plan(file, progress=case_counter(show, "checking the runs"))
         check_scheduler(scheduler)
@@ -99,6 +103,7 @@ def makeup(
                               "command again to resume[/]")
             raise typer.Exit(130) from None
     index = write_report(p, output)
+    record_outputs(output, written_files(output))
     _summary(output)
     say(f"page written to {index}")
 

@@ -50,6 +50,18 @@ def _shown(df: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+#: the files the page may write in its folder (beside ``cases/``)
+PAGE_FILES = ("index.html", "runs.csv", "makeups.csv", "percentiles.csv", "exceedance.csv",
+              "worst_lcf.csv", "worst_ltf.csv", "shared.csv", "fatigue.csv",
+              "distribution.png", "exceedance.png", "where.png", "features.png",
+              "fatigue.png")
+
+
+def written_files(out: Path) -> list[Path]:
+    """The files of :data:`PAGE_FILES` present in ``out``."""
+    return [Path(out) / n for n in PAGE_FILES if (Path(out) / n).is_file()]
+
+
 def write_report(p: Plan, out: str | Path, title: str | None = None) -> Path:
     """Write the study's tables (CSV), figures (PNG) and page into ``out``; returns the
     page's path."""
