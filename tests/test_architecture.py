@@ -4,7 +4,7 @@ a circle, and no function takes more parameters than a reader can hold.
 The layers, lowest first (each package's ``__init__`` says what it owns and may import):
 the base modules (errors, version, the result variables' declarations, the data files,
 progress and worker processes), ``physics``, ``scenario``, ``engine``, ``results``,
-``analysis``, ``viz``, ``sweep``, ``study`` and ``cli``. A module may import its own
+``analysis``, ``viz``, ``sweep``, ``study``, ``makeup`` and ``cli``. A module may import its own
 layer and those below; the package's face (``ltdsim/__init__.py``) is above them all.
 Every import counts, also one inside a function (the lazy imports that keep start-up
 fast are imports all the same)."""
@@ -29,6 +29,10 @@ LAYERS = (
     ("viz",),
     ("sweep",),
     ("study",),
+    # make-up studies: they run on the sweep's executor and build their page with the
+    # study report's page helpers (study.report.html), so they sit above both; nothing
+    # but the commands uses them
+    ("makeup",),
     ("cli",),
 )
 #: most parameters a function may take

@@ -3,7 +3,8 @@ parameter sets (presets) of every family, one TOML file each with its sources: d
 gears (``gears/``), brake valves (``brakes/``), traction motors (``motors/``) and rail
 conditions for the creep law (``creep/``), the strengths of couplers and draw gear
 (``strength/``, proof and ultimate loads with their sources) and their fatigue curves
-(``fatigue/``, S-N curves in coupler force range with their sources).
+(``fatigue/``, S-N curves in coupler force range with their sources), and the force
+limits a make-up study compares its runs with (``limits/``, per wagon type).
 
 One loader serves every family (:func:`preset_names`, :func:`load_preset`), reading
 package data through importlib.resources so that an installed wheel finds it as a
@@ -21,7 +22,8 @@ from importlib import resources
 #: the preset families: their folder under the package data, and what a preset is
 FAMILIES = {"gears": "gear preset", "brakes": "brake valve preset",
             "motors": "motor preset", "creep": "creep preset",
-            "strength": "coupler strength grade", "fatigue": "coupler fatigue curve"}
+            "strength": "coupler strength grade", "fatigue": "coupler fatigue curve",
+            "limits": "make-up force limit set"}
 
 
 @cache

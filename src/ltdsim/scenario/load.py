@@ -30,6 +30,10 @@ def load_scenario(path: str | Path, case: str | None = None) -> Scenario:
     """
     path = Path(path)
     data = read_toml(path)
+    if isinstance(data.get("scenario"), str) and "makeups" in data:
+        raise ScenarioError(str(path), [("", f"a make-up study file (its scenario and "
+                                             f"makeups keys), not a scenario: run it with "
+                                             f"`ltdsim makeup {path}`")])
     sweep = _sweep_tables(data)
     if sweep:
         raise ScenarioError(str(path), [("", f"a sweep file (its {sweep}), not a scenario: "

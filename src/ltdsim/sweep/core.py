@@ -174,6 +174,9 @@ def load_sweep(path: str | Path, progress: Checked | None = None) -> Sweep:
         swept = tuple(dict.fromkeys(k for c in cases for k in c.overrides))
         return _validated(Sweep(base, cases, source, swept), progress)
 
+    if "makeups" in data:
+        raise ScenarioError(source, [("", f"a make-up study file (its makeups key), not a "
+                                          f"sweep: run it with `ltdsim makeup {path}`")])
     unknown = sorted(set(data) - SWEEP_KEYS)
     if unknown:
         raise ScenarioError(source, [(k, f"unknown key; allowed: {', '.join(sorted(SWEEP_KEYS))}")
@@ -317,6 +320,13 @@ def _monte_carlo(source, mc: dict) -> list[dict]:
     return [{k: float(col[i]) for k, col in columns.items()} for i in range(n)]
 
 
+def validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
+    """``sweep`` (one made in code, not read from a file) with every case checked and
+    the estimates filled in, as :func:`load_sweep` does for a file. Raises
+    ScenarioError naming each bad case."""
+    return _validated(sweep, progress)
+
+
 def _validated(sweep: Sweep, progress: Checked | None = None) -> Sweep:
     """``sweep`` once every case's scenario is valid and its fixed step stable (else a
     ScenarioError naming each bad case, at most 20 of them;
@@ -432,7 +442,12 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
     ``"sysid"`` (identification locomotive force -> first wagon acceleration at 10 ms,
     with its step metrics) and ``"spectra"`` (phase spectra of the first and the last
     two couplers, each numbered as people count in ``coupler_number``: 1 = behind the
-    lead)."""
+    lead), ``"peaks"`` (each coupler's largest tension and compression over every step,
+    N, and when they occurred, s: the columns of
+    :func:`ltdsim.results.summary.coupler_summary`, a list entry per coupler, coupler 1
+    first) and ``"fatigue"`` (the couplers' fatigue damage the result carries, the rows
+    of :func:`ltdsim.results.fatigue.stored_damage`, couplers numbered from 1; empty
+    without fatigue curves)."""
     from ltdsim.analysis.phases import phase_norms
     from ltdsim.results.simulate import simulate
 
@@ -449,6 +464,20 @@ def run_case(scenario_dict: dict, case_id: str, keep_result: bool = False,
             record["phase_norms"], record["phases"] = {}, []
         if "sysid" in extras:
             record["sysid"] = _sysid_record(ds, sc)
+        if "peaks" in extras:
+            from ltdsim.results.summary import coupler_summary
+
+            if ds.sizes.get("coupler", 0):
+                peaks = coupler_summary(ds)
+                record["peaks"] = {k: peaks[k].tolist() for k in peaks.columns}
+            else:
+                record["peaks"] = {}
+        if "fatigue" in extras:
+            from ltdsim.results.fatigue import stored_damage
+
+            table = stored_damage(ds)
+            record["fatigue"] = ([] if table is None else json.loads(
+                table.to_json(orient="records")))
         if "spectra" in extras:
             from ltdsim.analysis.spectra import phase_spectra
 
