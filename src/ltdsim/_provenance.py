@@ -25,3 +25,20 @@ def code_hash() -> str:
             h.update(str(path.relative_to(here)).encode())
             h.update(path.read_bytes())
     return h.hexdigest()[:16]
+
+
+def source_commit() -> str:
+    """The git commit of the checkout ltdsim runs from, with "+ local changes" when its
+    package sources differ from that commit, or "no git checkout" for an installed
+    package (a wheel carries no history)."""
+    import subprocess
+
+    here = Path(__file__).parent
+    try:
+        head = subprocess.run(["git", "-C", str(here), "rev-parse", "--short=12", "HEAD"],
+                              capture_output=True, text=True, timeout=10, check=True)
+        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--", "."],
+                               capture_output=True, text=True, timeout=10, check=True)
+    except (OSError, subprocess.SubprocessError):
+        return "no git checkout"
+    return head.stdout.strip() + (" + local changes" if dirty.stdout.strip() else "")

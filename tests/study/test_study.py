@@ -3,6 +3,7 @@ figure present and finite, the side-by-side comparison first, units on every num
 column, couplers counted from 1, and a shortened run that never replaces a report made
 with other settings."""
 
+import base64
 import os
 import re
 from html.parser import HTMLParser
@@ -104,7 +105,12 @@ def test_the_comparison_with_the_study_comes_first_and_a_short_run_says_it_is_on
     _, out, index = report
     page = index.read_text()
     doc = parse(page)
-    assert doc.headings[0] == "ltdsim and the study, side by side"
+    # the verdict first (what was reproduced, why not, what rests on readings), then
+    # what to take away, then the claims one by one
+    assert doc.headings[:3] == ["Summary", "What to take away from this run",
+                                "ltdsim and the study, side by side"]
+    summary = page[page.index("id='summary'"):page.index("id='take-away'")]
+    assert "none of the study's" in summary and "href='#readings'" in summary
     header, rows = doc.tables[0]
     assert header[:4] == ["the study's claim (where)", "the study", "ltdsim", "agree?"]
     claims = " ".join(r[0] for r in rows)
@@ -176,6 +182,7 @@ def test_the_report_renders_in_headless_chromium_without_overflow(tmp_path):
 
     index = run_study(short_paper(tmp_path, keep=("LHHL",)), tmp_path / "report",
                       overrides=SHORT, reduction=False, workers=1)
+    assert index.stat().st_size <= 1.5e6  # the whole page, figures and tables inside
     # the screenshots go to a temporary folder: a test run leaves the tree as it was;
     # LTDSIM_SCREENSHOTS=benchmarks/results refreshes the README's pictures
     shots = Path(os.environ.get("LTDSIM_SCREENSHOTS") or tmp_path)
@@ -201,6 +208,23 @@ def test_the_report_renders_in_headless_chromium_without_overflow(tmp_path):
                 ".map(t => t.querySelector('th').textContent);")
             page_wide = browser.execute_script(
                 "return document.documentElement.scrollWidth > window.innerWidth + 1;")
+            # every link of the table of contents (and every in-page link) has its target
+            dangling = browser.execute_script(
+                "return Array.from(document.querySelectorAll('a[href^=\"#\"]'))"
+                ".map(a => a.getAttribute('href').slice(1))"
+                ".filter(id => !document.getElementById(id));")
+            toc = browser.execute_script(
+                "return document.querySelectorAll('nav.toc a').length;")
+            # printed: A4 less 1 cm margins is 718 CSS px wide; no table wider than that
+            browser.execute_cdp_cmd("Emulation.setEmulatedMedia", {"media": "print"})
+            browser.set_window_size(718 + 16, 1000)
+            printed_wide = browser.execute_script(
+                "return Array.from(document.querySelectorAll('table')).filter(t => "
+                "t.getBoundingClientRect().right > document.body.clientWidth + 1)"
+                ".map(t => t.querySelector('th').textContent);")
+            browser.execute_cdp_cmd("Emulation.setEmulatedMedia", {"media": ""})
+            browser.set_window_size(width, 1000)
+            pdf = base64.b64decode(browser.print_page())
             browser.set_window_size(width, 2400)  # the page's top: the comparison first
             shot = shots / f"report_{width}px.png"
             browser.save_screenshot(str(shot))
@@ -211,5 +235,8 @@ def test_the_report_renders_in_headless_chromium_without_overflow(tmp_path):
         assert all(done and nat > 0 and w > 0 and h > 0 for done, nat, w, h in sizes), sizes
         assert overflow == [], f"tables wider than the page at {width} px: {overflow}"
         assert not page_wide
+        assert dangling == [] and toc >= 10
+        assert printed_wide == [], f"tables wider than the printed page: {printed_wide}"
+        assert pdf[:5] == b"%PDF-" and len(pdf) > 100_000
         assert errors == []
         assert shot.stat().st_size > 10_000

@@ -156,6 +156,21 @@ def test_traction_never_exceeds_adhesion_and_the_check_counts_slip_risk(lhhl):
     assert (check.max_traction_over_adhesion <= 1.0 + 1e-12).all()
     over = (np.abs(ds.traction_demand.values) > ds.adhesion_limit.values).sum()
     assert check.loc[check.phase == "whole run", "samples_demand_over_adhesion"].item() == over
+    # the study's adhesion rests on the whole train's 876.6 t; on the locomotive's own
+    # 66.63 t the study's Curtius-Kniffler curve (0.161 + 7.5 / (3.6 v + 44)) gives
+    # 216.7 kN at standstill, so the study's 863 kN force limit is 4 times the
+    # locomotive's adhesion (a coefficient of 1.3)
+    whole = check[check.phase == "whole run"].iloc[0]
+    loco = sc.vehicles[0]
+    g = sc.track.gravity
+    top = np.abs(ds.traction_force.values)
+    k = int(np.argmax(top))
+    v = 3.6 * abs(float(ds.velocity.values[k, 0]))
+    assert whole.own_weight_adhesion_coefficient == pytest.approx(
+        top[k] / (loco.static_mass * g), rel=1e-12)
+    assert whole.max_traction_over_own_adhesion >= top[k] / (
+        loco.static_mass * g * (0.161 + 7.5 / (v + 44.0))) * (1 - 1e-12)
+    assert loco.static_mass * g * (0.161 + 7.5 / 44.0) == pytest.approx(216.7e3, rel=1e-3)
 
 
 def test_amplitude_spectrum_reads_back_known_sines_and_parseval():

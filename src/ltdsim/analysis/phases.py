@@ -114,11 +114,26 @@ def critical_couplers(norms: xr.Dataset, by: str | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def powered_weight_mass(scenario: Scenario) -> float:
+    """Static mass on the powered vehicles' wheels, kg: what a locomotive's own adhesion
+    rests on (``static_mass``, else ``mass``, summed over the powered vehicles)."""
+    return float(sum(v.static_mass or v.mass for v in scenario.vehicles if v.powered))
+
+
 def traction_check(ds: xr.Dataset, scenario: Scenario | None = None) -> pd.DataFrame:
     """Per phase (and the whole run): the largest traction and demand relative to the
     adhesion limit, and the samples where the demand exceeded adhesion (wheel-slip
-    risk; the drive then delivers only the limit)."""
+    risk; the drive then delivers only the limit); and the largest traction against the
+    adhesion of the powered vehicles' own weight (:func:`powered_weight_mass`, the same
+    Curtius-Kniffler coefficient at the leading powered vehicle's speed), with the
+    adhesion coefficient that traction implies on that weight (-), whatever mass the
+    scenario's ``traction.adhesion_mass`` gives."""
+    from ltdsim.physics.drive.traction import adhesion_limit
+
     scenario = scenario_of(ds, scenario)
+    own_mass = powered_weight_mass(scenario)
+    g = scenario.track.gravity
+    lead = int(np.argmax([v.powered for v in scenario.vehicles]))
     windows = [(WHOLE_RUN, float(ds.time[0]), float(ds.time[-1]))]
     if scenario.phases:
         windows += phases_of(ds, scenario)
@@ -134,6 +149,10 @@ def traction_check(ds: xr.Dataset, scenario: Scenario | None = None) -> pd.DataF
             "max_demand_over_adhesion": float(np.max(demand / adh)),
             "samples_demand_over_adhesion": int(over.sum()),
             "first_time_over_s": float(w.time.values[over][0]) if over.any() else float("nan"),
+            "max_traction_over_own_adhesion": float(np.max(np.abs(w.traction_force.values) / (
+                adhesion_limit(w.velocity.values[:, lead], own_mass, g)))),
+            "own_weight_adhesion_coefficient": float(np.max(np.abs(w.traction_force.values))
+                                                     / (own_mass * g)),
         })
     return pd.DataFrame(rows)
 

@@ -279,9 +279,67 @@ def _stage_base(out, cache, scenario: Scenario):
         "max_abs_acceleration_m_s2": abs(ds.acceleration).max("time").values.tolist(),
         "samples": int(ds.sizes["time"]),
         "diagnosis": _diagnosis(ds, scenario, out / "fig_base_run.png"),
+        "alternatives": _alternatives(ds, scenario),
     }
     extra = [Path(value["diagnosis"]["figure"])] if value["diagnosis"] else []
     return cache.put("base", key, value, [nc_path, *figs, *extra])
+
+
+def _alternatives(ds, scenario: Scenario) -> dict:
+    """The base case again under two changes that test what its numbers rest on:
+
+    * ``own_adhesion``: the traction limited by the adhesion of the powered vehicles'
+      own weight instead of the scenario's ``traction.adhesion_mass`` (the study's
+      reading, the whole train's); coupler 1's peak |force| per phase (N), the largest
+      tension and compression (N), the RMS speed error (m/s), the largest traction (N);
+    * ``stretched_start``: the couplings stretched to the end of their slack at the start
+      (the study does not say how they start); the largest tension and compression per
+      coupler (N) and the largest wagon |acceleration| (m/s^2);
+    * ``half_step``: the solver's step halved; every coupler's largest tension and
+      compression (N) beside the base run's, whose difference is the spread to quote
+      the peaks with.
+
+    Empty for a scenario whose traction has no adhesion mass to change."""
+    from ltdsim.analysis.phases import phase_norms, powered_weight_mass
+    from ltdsim.errors import LtdsimError
+    from ltdsim.results.simulate import simulate
+    from ltdsim.results.summary import coupler_summary, run_summary
+
+    def peaks(result):
+        cs = coupler_summary(result)
+        return {"max_tension_N": cs.max_tension_N.tolist(),
+                "max_compression_N": cs.max_compression_N.tolist()}
+
+    out = {}
+    try:
+        own_sc = scenario.with_overrides(
+            {"traction.adhesion_mass": powered_weight_mass(scenario)},
+            source="the locomotives' own adhesion")
+    except (LtdsimError, ValueError, AttributeError):
+        own_sc = None
+    if own_sc is not None:
+        own = simulate(own_sc)
+        norms = phase_norms(own, own_sc)
+        summ = run_summary(own)
+        out["own_adhesion"] = {
+            "adhesion_mass_kg": own_sc.traction.adhesion_mass,
+            "phases": [str(p) for p in norms.phase.values],
+            "coupler1_peak_N": norms.coupler_force_infnorm.values[:, 0].tolist(),
+            "rms_speed_error_m_s": summ["rms_speed_error_m_s"],
+            "max_traction_N": summ["max_traction_N"], **peaks(own)}
+    if scenario.initial.couplers != "stretched":
+        st_sc = scenario.with_overrides({"initial.couplers": "stretched"},
+                                        source="a stretched start")
+        st = simulate(st_sc)
+        acc = np.abs(st.acceleration.values[:, 1:])
+        out["stretched_start"] = {**peaks(st), "max_wagon_acceleration_m_s2":
+                                  float(acc.max()) if acc.size else float("nan")}
+    if not scenario.solver.adaptive:  # (bs23's step follows its tolerances)
+        half = scenario.with_overrides({"solver.dt": 0.5 * scenario.solver.dt},
+                                       source="half the step")
+        out["half_step"] = {"dt_s": half.solver.dt, "base": peaks(ds),
+                            "half": peaks(simulate(half))}
+    return out
 
 
 def _jsonable(d: dict) -> dict:
@@ -307,7 +365,7 @@ def _diagnosis(ds, scenario: Scenario, figure: Path) -> dict | None:
     except (LtdsimError, ValueError):  # no cruise to judge (a short run), or not the study's
         return None
     earlier = simulate(earlier_sc)
-    hunt_figure({"this run": ds, "earlier reading": earlier}, figure)
+    hunt_figure({"this run (ltdsim's reading)": ds, "alternative reading": earlier}, figure)
     masses = {"locomotive": scenario.vehicles[scenario.consists()[0].vehicles[0]].mass,
               "train": sum(v.mass for v in scenario.vehicles)}
     loop = {}

@@ -132,6 +132,8 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
     vmax = max(float(np.abs(ds.velocity).max()) * 1.1, 1.0)
     v = np.linspace(0.0, vmax, 300)
     adh = adhesion_limit(v, t.adhesion_mass, g)
+    own_mass = sum(vh.static_mass or vh.mass for vh in scenario.vehicles if vh.powered)
+    own = adhesion_limit(v, own_mass, g) if abs(own_mass / t.adhesion_mass - 1) > 0.02 else None
     power = np.divide(t.max_power, v, out=np.full_like(v, np.inf), where=v > 0)
     top = 1.08 * max(float(adh.max()), t.max_force, float(np.abs(ds.traction_force).max())) / 1e3
     cols = 2 if n > 1 else 1
@@ -141,22 +143,31 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
     ref = int(np.argmax([vh.powered for vh in scenario.vehicles]))
     for k, (name, a, b) in enumerate(phases):
         ax = axes.flat[k]
-        ax.plot(v, adh / 1e3, "k:", lw=1.2, label="adhesion limit")
+        ax.plot(v, adh / 1e3, "k:", lw=1.2, label=f"adhesion limit "
+                f"({t.adhesion_mass / 1e3:.0f} t, the scenario's)")
+        if own is not None:
+            ax.plot(v, own / 1e3, color="tab:red", lw=1.4,
+                    label=f"adhesion of the locomotives' own weight ({own_mass / 1e3:.1f} t)")
         ax.plot(v, np.full_like(v, t.max_force) / 1e3, "k--", lw=1, label="force limit")
         ax.plot(v, np.minimum(power, 2 * top * 1e3) / 1e3, "k-.", lw=1, label="power limit")
         w = ds.sel(time=slice(a, b))
-        ax.plot(w.velocity.isel(vehicle=ref), np.abs(w.traction_force) / 1e3, ".", ms=2,
-                color="tab:blue", label="|locomotive force|")
+        speed = w.velocity.isel(vehicle=ref).values
+        ax.plot(speed, np.abs(w.traction_force) / 1e3, ".", ms=2,
+                color="tab:blue", label="|locomotive force| (1 dot per sample)")
         ax.set_ylim(0, top)
-        ax.set_xlim(0, vmax)
-        ax.set_title(name, loc="left")
+        # each phase's own speed range (a phase at constant speed is otherwise one dot)
+        lo, hi = float(speed.min()), float(speed.max())
+        pad = max(0.15 * (hi - lo), 0.02)
+        ax.set_xlim(max(lo - pad, 0.0), min(hi + pad, vmax) if hi + pad > lo else vmax)
+        ax.set_title(name.replace("_", " "), loc="left")
         ax.set_xlabel("speed of the locomotive [m/s]")
         ax.set_ylabel("force [kN]")
     for ax in axes.flat[n:]:
         ax.set_visible(False)
-    axes.flat[0].legend(loc="upper right")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=3, fontsize="small")
     fig.suptitle("Locomotive force against speed under the traction curve, per phase "
-                 "(study Fig. 7)")
+                 "(study Fig. 7); each panel's speed axis spans its phase")
     files.append(_save(fig, folder / f"{prefix}fig7_traction_curve.png"))
     return files
 

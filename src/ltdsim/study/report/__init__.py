@@ -38,6 +38,7 @@ def write_report(out: Path, results: dict, scenario: Scenario, case: str,
     sections in the page's order."""
     rep = Report(Path(out), results, scenario, case)
     base_run.readings(rep)
+    base_run.methods(rep)
     base_run.base_run(rep)
     fitting.reduction(rep)
     fitting.speed_error(rep)

@@ -9,6 +9,7 @@ import html
 import numpy as np
 import pandas as pd
 
+from ltdsim.physics.drive.traction import adhesion_limit
 from ltdsim.study.report.html import (
     csv_table,
     figure_html,
@@ -112,8 +113,9 @@ def _critical(rep: Report, phases, base) -> None:
                        | set(tc["study, by RMS [coupler]"].dropna().astype(int)))
     rep.take.append("Critical couplers (largest force in a phase, by peak or by RMS): "
                      f"<b>{numbers_text(ours)}</b>; by peak " + ", ".join(
-                         f"{ph} {c}" for ph, c in peak.items()) + "; by RMS " + ", ".join(
-                         f"{ph} {c}" for ph, c in rms.items())
+                         f"{ph.replace('_', ' ')} {c}" for ph, c in peak.items())
+                     + "; by RMS " + ", ".join(
+                         f"{ph.replace('_', ' ')} {c}" for ph, c in rms.items())
                      + (f" (the study: {numbers_text(study_set)}; "
                         + _mass_behind(rep, sorted(set(ours) | set(study_set))) + ")."
                         if study_set else "."))
@@ -177,6 +179,14 @@ def _newton_check(rep: Report, phases, norms, t5s, n_study) -> None:
     study_rms = kn(t5s["coupler_force_2norm_N"][ph][0] / np.sqrt(n_study))
     loco_rms = kn(t5s["locomotive_force_2norm_N"][ph] / np.sqrt(n_study))
     ours = kn(norms["coupler_force_infnorm"][k][0])
+    rep.causes.append(
+        f"<b>The study's coupler forces contradict its own accelerations.</b> Its "
+        f"{len(masses) - 1} wagons ({behind / 1e3:.0f} t) all reach {study_acc:.2f} m/s² or "
+        f"more while accelerating, which takes {need_peak:.0f} kN through coupler 1, yet its "
+        f"Table 5 gives coupler 1 a peak of {study_peak:.0f} kN and an RMS of "
+        f"{study_rms:.0f} kN under a locomotive force of {loco_rms:.0f} kN RMS. No model "
+        "obeying Newton's law reproduces both; ltdsim's coupler 1 peaks at "
+        f"{ours:.0f} kN (<a href='#table5'>Table 5</a>).")
     rep.claim("Coupler 1 in the acceleration phase (Table 5)",
                f"peak {study_peak:.0f} kN, RMS {study_rms:.0f} kN",
                f"peak {ours:.0f} kN, RMS {kn(norms['coupler_force_rms'][k][0]):.0f} kN",
@@ -192,26 +202,74 @@ def _newton_check(rep: Report, phases, norms, t5s, n_study) -> None:
 def _traction(rep: Report, base) -> None:
     tc = pd.DataFrame(base["traction_check"]).rename(columns={
         "phase": "phase",
-        "max_traction_over_adhesion": "largest |traction| / adhesion limit [-]",
-        "max_demand_over_adhesion": "largest demand / adhesion limit [-]",
-        "samples_demand_over_adhesion": "samples with demand above adhesion [-]",
-        "first_time_over_s": "first time demand above adhesion [s]"})
-    col = "first time demand above adhesion [s]"
+        "max_traction_over_adhesion": "largest |traction| / the scenario's adhesion limit [-]",
+        "max_demand_over_adhesion": "largest demand / that limit [-]",
+        "samples_demand_over_adhesion": "samples with demand above it [-]",
+        "first_time_over_s": "first time demand above it [s]",
+        "max_traction_over_own_adhesion":
+            "largest |traction| / the locomotive's own adhesion limit [-]",
+        "own_weight_adhesion_coefficient":
+            "adhesion coefficient that asks of the locomotive's weight [-]"})
+    col = "first time demand above it [s]"
     tc[col] = [number_or(v, "never") for v in tc[col]]
-    rep.parts += ["<h3>Traction against the adhesion limit</h3>",
+    t = rep.sc.traction
+    own_mass = sum(v.static_mass or v.mass for v in rep.sc.vehicles if v.powered)
+    g = rep.sc.track.gravity
+    # the study's Curtius-Kniffler coefficient at standstill (Eq. 15)
+    mu0 = float(adhesion_limit(0.0, 1.0, 1.0))
+    rep.parts += ["<h3 id='adhesion'>Traction against the adhesion limit</h3>",
                    "<p class='note'>The demand is the force the speed controller asks "
                    "for; the traction curve (adhesion, force and power limits) lets "
                    "through at most the limit, so a demand above adhesion marks a "
-                   "wheel-slip risk, not slip itself.</p>",
+                   "wheel-slip risk, not slip itself. The scenario's adhesion rests on "
+                   f"{t.adhesion_mass / 1e3:.1f} t; the locomotive's own weight is "
+                   f"{own_mass / 1e3:.1f} t (the last two columns).</p>",
                    table_html(tc), csv_table(tc, rep.out, "traction_check.csv")]
     whole = tc[tc.phase == "whole run"].iloc[0]
-    ratio = whole["largest |traction| / adhesion limit [-]"]
-    over = int(whole["samples with demand above adhesion [-]"])
-    rep.take.append(f"Traction stayed at or below {ratio:.0%} of the adhesion limit; "
-                     f"the demand exceeded the limit in {over} samples (wheel-slip "
-                     "risk)" + ("; the study too finds traction under adhesion throughout."
-                                if ratio <= 1.0 + 1e-9 else "."))
+    ratio = whole["largest |traction| / the scenario's adhesion limit [-]"]
+    own_ratio = whole["largest |traction| / the locomotive's own adhesion limit [-]"]
+    mu = whole["adhesion coefficient that asks of the locomotive's weight [-]"]
+    over = int(whole["samples with demand above it [-]"])
+    premise = abs(own_mass / t.adhesion_mass - 1.0) > 0.02 and own_ratio > 1.0
+    if not premise:
+        rep.take.append(f"Traction stayed at or below {ratio:.0%} of the adhesion limit; "
+                        f"the demand exceeded it in {over} samples (wheel-slip risk).")
+        rep.claim("Traction stays under the adhesion curve in every phase (§5.1, Fig. 7)",
+                  "never above", f"at most {ratio:.0%} of the limit",
+                  "yes" if ratio <= 1.0 + 1e-9 else "no",
+                  f"the demand exceeded adhesion in {over} samples (limited by the curve)")
+        return
+    limit0 = own_mass * g * mu0
+    top = float(np.max(np.abs(t.max_force)))
+    alt = (base.get("alternatives") or {}).get("own_adhesion")
+    explain = ""
+    if alt:
+        k = alt["phases"].index("acceleration") if "acceleration" in alt["phases"] else 0
+        explain = (f" Limited by the locomotive's own adhesion, the same run pulls "
+                   f"{kn(alt['coupler1_peak_N'][k]):.0f} kN through coupler 1 in the "
+                   f"{alt['phases'][k]} phase (this run "
+                   f"{kn(base['norms']['coupler_force_infnorm'][k][0]):.0f} kN) and its "
+                   f"largest traction is {kn(alt['max_traction_N']):.0f} kN, but the train "
+                   "no longer follows the speed reference (RMS speed error "
+                   f"{alt['rms_speed_error_m_s']:.1f} m/s): the study's traction, and with "
+                   "it most of ltdsim's coupler forces, needs about five locomotives' "
+                   "adhesion.")
+    text = (f"<b>The study's traction is not possible for its locomotive.</b> The study "
+            f"takes the adhesion on the whole train's static mass ({t.adhesion_mass / 1e3:.0f}"
+            f" t, {kn(t.adhesion_mass * g * mu0):.0f} kN at standstill); on the "
+            f"{own_mass / 1e3:.1f} t locomotive's own weight the limit is "
+            f"{kn(limit0):.0f} kN, while its force limit is {kn(top):.0f} kN and this run "
+            f"asks up to {own_ratio:.1f} times the limit, an adhesion coefficient of "
+            f"{mu:.2f} (the study's own curve gives {mu0:.2f} at standstill).{explain} "
+            "<a href='#adhesion'>Traction against adhesion</a>, Fig. 7.")
+    rep.causes.insert(0, text)
+    rep.take.append(f"Traction stayed under the study's adhesion limit ({ratio:.0%} of it) "
+                    f"but reached {own_ratio:.1f} times the adhesion of the locomotive's "
+                    f"own {own_mass / 1e3:.1f} t (coefficient {mu:.2f}): a real locomotive "
+                    "would slip.")
     rep.claim("Traction stays under the adhesion curve in every phase (§5.1, Fig. 7)",
-               "never above", f"at most {ratio:.0%} of the limit",
-               "yes" if ratio <= 1.0 + 1e-9 else "no",
-               f"the demand exceeded adhesion in {over} samples (limited by the curve)")
+              "never above", f"at most {ratio:.0%} of the study's limit; "
+              f"{own_ratio:.1f} times the locomotive's own", "no",
+              f"the study's limit rests on the whole train's {t.adhesion_mass / 1e3:.0f} t; "
+              f"on the locomotive's {own_mass / 1e3:.1f} t the force asked means an "
+              f"adhesion coefficient of {mu:.2f}: the premise is impossible")
