@@ -273,7 +273,7 @@ def test_damaged_study_state_recomputes_exactly_the_damaged_stages(tmp_path):
         assert ("base_case.nc" in rewritten) == ("base" in kinds)
         assert ("cache/base.json" in rewritten) == ("base" in kinds)
         assert ("cache/modal.json" in rewritten) == ("modal" in kinds)
-        assert ("fig8_modes_draft.png" in rewritten) == ("modal" in kinds)
+        assert ("fig8_modes.png" in rewritten) == ("modal" in kinds)
         assert ("sweep/cases/LHHL.json" in rewritten) == ("sweep" in kinds)
         reused = {s for s, m in stages if m.startswith("reused")}
         assert reused == {"base", "modal"} - kinds

@@ -403,14 +403,15 @@ def _stage_modal(out, cache, scenario: Scenario):
     from ltdsim.viz.analysis import save_mode_shapes
 
     key = _modal_key(scenario)
-    files = [out / "fig8_modes_buff.png", out / "fig8_modes_draft.png"]
+    files = [out / "fig8_modes.png"]
     hit = cache.get("modal", key)
     if hit is not None:
         return hit
     gears = scenario.coupler(0).gears
     value = {"gears": gears}
     label = {"buff": "k1", "draft": "k2 + k3"}
-    for branch, fig in zip(("buff", "draft"), files):
+    tables, stiff = {}, {}
+    for branch in ("buff", "draft"):
         try:
             free = train_modes(scenario, branch, "free")
             held = train_modes(scenario, branch, "held")
@@ -418,13 +419,21 @@ def _stage_modal(out, cache, scenario: Scenario):
         except ValueError as exc:  # couplers without k1/k2/k3
             value[branch] = {"error": str(exc)}
             continue
-        save_mode_shapes(free, fig, title=f"Fig. 8, {branch} branch: coupling stiffness "
-                                          f"{label[branch]} = {k[0] / 1e6:.2f} MN/m "
-                                          f"({gears} gear{'s' if gears > 1 else ''} per "
-                                          "coupling); case "
-                                          f"{scenario.case or scenario.name}, free train")
+        tables[branch], stiff[branch] = free, float(k[0])
         value[branch] = {"free": free.frequency_hz.tolist(), "held": held.frequency_hz.tolist(),
                          "coupling_stiffness_N_m": float(k[0])}
+    if tables:
+        # one figure, both branches drawn in each panel: with every coupling alike the
+        # shapes coincide and the branches differ only in frequency
+        first = "buff" if "buff" in tables else "draft"
+        second = "draft" if first == "buff" and "draft" in tables else None
+        save_mode_shapes(
+            tables[first], files[0],
+            title="Fig. 8: mode shapes of the free train, case "
+                  f"{scenario.case or scenario.name} ({gears} gear{'s' if gears > 1 else ''} "
+                  "per coupling); " + ", ".join(
+                      f"{b} {label[b]} = {stiff[b] / 1e6:.2f} MN/m" for b in tables),
+            names=(first, second or ""), other=tables.get(second) if second else None)
     couplings = ([scenario.with_case(c).coupler(0) for c in scenario.cases]
                  or [scenario.coupler(0)])
     if all(g.model == "simplified" for g in couplings):

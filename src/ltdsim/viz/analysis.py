@@ -18,13 +18,17 @@ from ltdsim.results.io import scenario_of
 from ltdsim.scenario import Scenario
 
 
-def save_mode_shapes(table: pd.DataFrame, path, title: str = "", table_numbers: bool = False):
+def save_mode_shapes(table: pd.DataFrame, path, title: str = "", table_numbers: bool = False,
+                     names: tuple[str, str] = ("", ""), other: pd.DataFrame | None = None):
     """Mode-shape figure (the study's Fig. 8): one panel per mode (the rigid-body mode of
     a free train left out), its amplitude along the train, normalised to the largest,
     with its frequency; ``title`` should say which stiffness was used. The panels are
     numbered from 1 as drawn (the study's count), or with ``table_numbers`` as the rows
     of ``table`` are (1 = the lowest, the rigid-body mode, not drawn), for a figure
-    beside that table."""
+    beside that table. With ``other`` (the same train's modes on another branch of the
+    coupler law, ``names`` naming the two), each panel draws both shapes, dashed for the
+    other, and gives both frequencies: where every coupling has the same stiffness the
+    shapes coincide and only the frequencies differ."""
     from ltdsim.viz.plotting import WIDTH, _save, plt
 
     modes = table[table.frequency_hz > 1e-6]
@@ -40,8 +44,19 @@ def save_mode_shapes(table: pd.DataFrame, path, title: str = "", table_numbers: 
     for k, (row, f, number) in enumerate(zip(shapes, modes.frequency_hz, numbers)):
         ax = axes.flat[k]
         ax.axhline(0.0, color="0.5", lw=0.8)
-        ax.plot(x, row / np.abs(row).max(), "o-", ms=4, lw=1.2, color="tab:blue")
-        ax.set_title(f"mode {number}: {f:.2f} Hz", loc="left")
+        ax.plot(x, row / np.abs(row).max(), "o-", ms=4, lw=1.2, color="tab:blue",
+                label=names[0] or None)
+        text = f"mode {number}: {f:.2f} Hz"
+        if other is not None:
+            om = other[other.frequency_hz > 1e-6]
+            if k < len(om):
+                o = om.drop(columns="frequency_hz").values[k]
+                o = o / np.abs(o).max() * (1.0 if np.dot(o, row) >= 0 else -1.0)
+                ax.plot(x, o, "--", lw=1.4,
+                        color="tab:orange", label=names[1] or None)
+                text = (f"mode {number}: {f:.2f} Hz {names[0]}, "
+                        f"{om.frequency_hz.iloc[k]:.2f} Hz {names[1]}")
+        ax.set_title(text, loc="left", fontsize="medium")
         ax.set_ylim(-1.15, 1.15)
         ax.xaxis.set_major_locator(plt.MaxNLocator(integer=True))
     for ax in axes.flat[len(modes):]:
@@ -50,6 +65,8 @@ def save_mode_shapes(table: pd.DataFrame, path, title: str = "", table_numbers: 
         ax.set_xlabel("vehicle (1 = lead)")
     for ax in axes[:, 0]:
         ax.set_ylabel("displacement [-]")
+    if other is not None:
+        axes.flat[0].legend(loc="lower left", fontsize="small")
     left = [str(i + 1) for i in range(len(table)) if table.index[i] not in modes.index]
     fig.suptitle((title or "mode shapes") + (f" (mode {', '.join(left)} at 0 Hz, the "
                                              "rigid-body motion, not drawn)"
@@ -86,19 +103,29 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
                              constrained_layout=True)
     for k, (name, a, b) in enumerate(phases):
         w = ds.sel(time=slice(a, b))
+        label = name.replace("_", " ")
         for i in range(1, nv):
             c = cmap(norm(i + 1))
             axes[k, 0].plot(w.time, w.relative_position.isel(vehicle=i) * 1e3, lw=0.8, color=c)
-            axes[k, 1].plot(w.time, w.relative_velocity.isel(vehicle=i), lw=0.8, color=c)
-        axes[k, 0].set_title(f"{name}: position relative to vehicle 1", loc="left")
-        axes[k, 1].set_title(f"{name}: velocity relative to vehicle 1", loc="left")
+        # the velocities as a map (vehicle against time): nine lines of the same
+        # oscillation are a tangle, a map shows which vehicles move together and when
+        if nv > 1:
+            rv = w.relative_velocity.values[:, 1:].T
+            lim = max(float(np.abs(rv).max()), 1e-9)
+            mesh = axes[k, 1].pcolormesh(w.time.values, np.arange(2, nv + 1), rv,
+                                         cmap="RdBu_r", vmin=-lim, vmax=lim,
+                                         shading="nearest", rasterized=True)
+            fig.colorbar(mesh, ax=axes[k, 1], label="[m/s]", pad=0.01, aspect=15)
+            axes[k, 1].set_yticks(np.arange(2, nv + 1, max(1, (nv - 1) // 9)))
+        axes[k, 0].set_title(f"{label}: position relative to vehicle 1", loc="left")
+        axes[k, 1].set_title(f"{label}: velocity relative to vehicle 1", loc="left")
         axes[k, 0].set_ylabel("[mm]")
-        axes[k, 1].set_ylabel("[m/s]")
+        axes[k, 1].set_ylabel("vehicle [-]")
     for ax in axes[-1]:
         ax.set_xlabel("time [s]")
     if nv > 1:
-        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=axes, label="vehicle (1 = lead)",
-                           aspect=40, pad=0.01)
+        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=axes[:, 0], label="vehicle "
+                           "(1 = lead), left column", aspect=40, pad=0.01, location="left")
         bar.set_ticks(np.arange(2, nv + 1, max(1, (nv - 1) // 10)))
     fig.suptitle("Vehicles relative to the lead vehicle per phase (study Fig. 5); "
                  "- behind, + ahead of their starting offset")
@@ -215,18 +242,28 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
         for which, (lo, hi, colour) in bands.items():
             ax.axvspan(lo, hi, color=colour, alpha=0.15, lw=0,
                        label=f"{which}-branch modes {lo:.2f}-{hi:.2f} Hz")
+        floor = np.inf
         for j, c in enumerate(couplers):
             f, amp = amplitude_spectrum(w.isel(coupler=c).values, dt, detrend="linear")
-            band = f <= f_max
-            ax.plot(f[band], amp[band] / 1e3, lw=1.0, color=HIGHLIGHT_COLOURS[j % 5],
-                    label=f"coupler {c + 1}")
-        ax.set_title(f"{name} ({b - a:.0f} s, lines {1 / (b - a):.2g} Hz apart)", loc="left")
+            band = (f <= f_max) & (f > 0)
+            ax.semilogy(f[band], np.maximum(amp[band] / 1e3, 1e-6), lw=1.0,
+                        color=HIGHLIGHT_COLOURS[j % 5], label=f"coupler {c + 1}")
+            floor = min(floor, float(np.max(amp[band])) / 1e3 * 1e-4)
+        res = 1.0 / (b - a)
+        # below twice the resolution a line is the window's trend, not a mode
+        ax.axvspan(0.0, 2.0 * res, color="0.85", lw=0, label="trend, not a mode")
+        ax.set_title(f"{name.replace('_', ' ')} ({b - a:.0f} s: lines {res:.2g} Hz apart)",
+                     loc="left")
         ax.set_xlabel("frequency [Hz]")
-        ax.set_ylabel("amplitude [kN]")
+        ax.set_ylabel("amplitude [kN] (log)")
         ax.set_xlim(0, f_max)
+        if np.isfinite(floor):
+            ax.set_ylim(bottom=floor)
     for ax in axes.flat[len(phases):]:
         ax.set_visible(False)
-    axes.flat[0].legend(loc="upper right")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 6),
+               fontsize="small")
     fig.suptitle("Coupler force spectra per phase (linear trend removed), with the train's modal "
                  "bands (lead held)")
     files.append(_save(fig, folder / "spectra_per_phase.png"))
@@ -245,17 +282,28 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
         fig, axes = plt.subplots(len(maps), 1, figsize=(WIDTH, 2.4 * len(maps) + 1.0),
                                  squeeze=False, sharex=True, constrained_layout=True)
         for k, (c, f, t, z) in enumerate(maps):
-            band = f <= f_top
+            # from twice the resolution: the lowest lines hold each window's residual trend
+            band = (f <= f_top) & (f >= 2.0 * f[1])
             db = 20 * np.log10(np.maximum(z[band] / 1e3, 1e-12))
             mesh = axes[k, 0].pcolormesh(t + float(ds.time[0]), f[band], db, shading="auto",
                                          cmap="magma", vmin=ref - span_db, vmax=ref,
                                          rasterized=True)
             axes[k, 0].set_ylabel(f"coupler {c + 1}\nfrequency [Hz]")
             axes[k, 0].grid(False)
+            for name, a, b in phases:  # the study's phase windows
+                axes[k, 0].axvspan(a, b, fill=False, ec="w", lw=1.0, ls="--")
+                if k == 0:
+                    span_t = float(ds.time[-1] - ds.time[0])
+                    axes[k, 0].text(max(a, float(ds.time[0])) + 0.006 * span_t, f[band][-1],
+                                    name.replace("_", " "),
+                                    color="w", ha="left", va="top", fontsize="small",
+                                    bbox={"fc": "k", "alpha": 0.6, "lw": 0, "pad": 1.5})
+        axes[0, 0].set_xlim(float(ds.time[0]), float(ds.time[-1]))
         fig.colorbar(mesh, ax=axes[:, 0], label="amplitude [dB re 1 kN]", aspect=30, pad=0.01)
         axes[-1, 0].set_xlabel("time [s] (window centres)")
-        fig.suptitle(f"Time-frequency map of coupler forces (10 s Hann windows, trend removed; "
-                     f"0-{f_top:g} Hz holds 99.5 % of the content below {f_max:g} Hz)")
+        fig.suptitle(f"Time-frequency map of coupler forces: 10 s Hann windows, trend removed, "
+                     f"from {2.0 * maps[0][1][1]:.2g} Hz\n(0-{f_top:g} Hz holds 99.5 % of the "
+                     f"content below {f_max:g} Hz; dashed boxes: the study's phases)")
         files.append(_save(fig, folder / "spectrogram.png"))
     return files
 

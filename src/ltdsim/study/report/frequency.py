@@ -70,10 +70,14 @@ def modal(rep: Report) -> None:
                  "branch (the study's \"high\") gives the lower frequencies.")
     rep.parts += ["<h2 id='fig8'>Fig. 8: natural frequencies and mode shapes</h2>",
                    note + "</p>", table_html(tm), csv_table(tm, rep.out, "modal_bands.csv")]
-    rep.parts += [figure_html(p, f"Fig. 8: mode shapes, {p.stem.split('_')[-1]} "
-                                  f"branch, case {rep.case}") for p in
-                   (rep.out / "fig8_modes_buff.png", rep.out / "fig8_modes_draft.png")
-                   if p.is_file()]
+    fig = rep.out / "fig8_modes.png"
+    if fig.is_file():
+        rep.parts.append(figure_html(
+            fig, f"Fig. 8: mode shapes of the free train, case {rep.case}, on both "
+            "branches (solid buff, dashed draft). See that the shapes coincide: every "
+            "coupling has the same stiffness, so a branch changes only the frequencies, "
+            "by the square root of the stiffness ratio; mode n has n - 1 nodes along "
+            "the train"))
     for branch in ("draft", "buff"):
         m = modal.get(branch, {})
         if "free" not in m:
@@ -148,8 +152,14 @@ def spectra(rep: Report) -> None:
         "with the number of lines.</p>",
         table_html(shown7), csv_table(t7, rep.out, "table7_spectra.csv"),
         figure_html(rep.out / "spectra_per_phase.png",
-                    "Fig. 9a: coupler force spectra per phase"),
-        figure_html(rep.out / "spectrogram.png", "Fig. 9b: time-frequency map")]
+                    "Fig. 9a: coupler force spectra per phase, log scale, with the train's "
+                    "modal bands shaded. See whether the content falls steeply above the "
+                    "bands' top (the forces then ring in the train's own modes); lines "
+                    "below twice the resolution (grey) are the windows' trend"),
+        figure_html(rep.out / "spectrogram.png",
+                    "Fig. 9b: time-frequency map over the whole run, the study's phases "
+                    "dashed. See which lines ring after the start and the deceleration, "
+                    "and how many seconds they take to die away")]
     share = base.get("spectral_share_below_4hz", {})
     values = [v for ph in share.values() for v in ph.values()]
     if values:

@@ -67,12 +67,19 @@ def phases(rep: Report) -> None:
     _traction(rep, base)
     rep.parts += [
         figure_html(rep.out / "fig5_relative_motion.png",
-                    "Fig. 5: position and velocity of each vehicle relative to the "
-                    "locomotive, per phase"),
+                    "Fig. 5: position (left) and velocity (right, a map of vehicle against "
+                    "time) of each vehicle relative to the locomotive, per phase. See the "
+                    "slack run out down the train in the first seconds and run in at "
+                    "the deceleration (diagonal bands: a wave travelling along the "
+                    "train), and the cruise phases' small ringing"),
         figure_html(rep.out / "fig6_forces.png",
-                    "Fig. 6: traction and coupler forces per phase"),
+                    "Fig. 6: locomotive force and coupler forces per phase. See coupler 1 "
+                    "carry the most and the forces ring after each change of traction"),
         figure_html(rep.out / "fig7_traction_curve.png",
-                    "Fig. 7: traction against speed under the traction curve, per phase")]
+                    "Fig. 7: locomotive force against speed under the traction curve, each "
+                    "panel's speed axis spanning its phase. See the force stay under the "
+                    "study's adhesion limit (dotted) but far above the adhesion of the "
+                    "locomotive's own weight (red) while accelerating and braking")]
     if study_case:
         _newton_check(rep, phases, norms, t5s, n_study)
 
