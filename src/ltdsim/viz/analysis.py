@@ -139,17 +139,19 @@ def phase_figures(ds: xr.Dataset, folder: str | Path, scenario: Scenario | None 
     for k, (name, a, b) in enumerate(phases):
         w = ds.sel(time=slice(a, b))
         axes[k, 0].plot(w.time, w.traction_force / 1e3, lw=0.9, color="k")
-        axes[k, 0].set_title(f"{name}: locomotive force", loc="left")
+        axes[k, 0].set_title(f"{name.replace('_', ' ')}: locomotive force", loc="left")
         axes[k, 0].set_ylabel("[kN]")
         if nc:
             coupler_lines(axes[k, 1], w.time.values, w.coupler_force.values, picks,
                           others=nc <= 30)
-        axes[k, 1].set_title(f"{name}: coupler forces (+ tension)", loc="left")
+        axes[k, 1].set_title(f"{name.replace('_', ' ')}: coupler forces (+ tension)",
+                             loc="left")
         axes[k, 1].set_ylabel("[kN]")
     for ax in axes[-1]:
         ax.set_xlabel("time [s]")
-    if nc:
-        axes[0, 1].legend(loc="upper right", ncol=len(picks) + 1)
+    if nc:  # below the panels, clear of the data
+        handles, labels = axes[0, 1].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside lower center", ncol=len(picks) + 1)
     fig.suptitle("Traction and coupler forces per phase (study Fig. 6)")
     files.append(_save(fig, folder / f"{prefix}fig6_forces.png"))
 
