@@ -8,8 +8,9 @@ STAMP  := $(VENV)/.installed-stamp
 
 # create the virtual environment and install ltdsim with its test tools
 $(STAMP): pyproject.toml
+	@echo "installing ltdsim and its dependencies into $(VENV) (first time only, 1-2 min)"
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e ".[test]"
+	$(BIN)/python -m pip install --disable-pip-version-check --progress-bar off -e ".[test]"
 	touch $(STAMP)
 
 ## run: reproduce the whole study as one report in report/ (about 70 s; 2.5 min the first time)
