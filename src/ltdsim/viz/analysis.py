@@ -274,6 +274,12 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
     for c in couplers:
         f, t, z = spectrogram(ds.coupler_force.isel(coupler=c).values, dt, detrend="linear")
         maps.append((c, f, t, z))
+    # from twice the resolution: the lowest lines hold each window's residual trend; a run
+    # too short for a line there keeps its lowest nonzero line
+    if maps:
+        f0 = maps[0][1]
+        low = 2.0 * f0[1] if np.any((f0 >= 2.0 * f0[1]) & (f0 <= f_max)) else f0[1]
+        maps = [m for m in maps if np.any((m[1] >= low) & (m[1] <= f_max))]
     if maps:
         power = sum(np.sum(z[f <= f_max] ** 2, axis=1) for _, f, _, z in maps)
         f = maps[0][1][maps[0][1] <= f_max]
@@ -284,8 +290,7 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
         fig, axes = plt.subplots(len(maps), 1, figsize=(WIDTH, 2.4 * len(maps) + 1.0),
                                  squeeze=False, sharex=True, constrained_layout=True)
         for k, (c, f, t, z) in enumerate(maps):
-            # from twice the resolution: the lowest lines hold each window's residual trend
-            band = (f <= f_top) & (f >= 2.0 * f[1])
+            band = (f <= f_top) & (f >= low)
             db = 20 * np.log10(np.maximum(z[band] / 1e3, 1e-12))
             mesh = axes[k, 0].pcolormesh(t + float(ds.time[0]), f[band], db, shading="auto",
                                          cmap="magma", vmin=ref - span_db, vmax=ref,
@@ -304,7 +309,7 @@ def spectra_figures(ds, folder, scenario=None, couplers=(0, 7, 8), f_max: float 
         fig.colorbar(mesh, ax=axes[:, 0], label="amplitude [dB re 1 kN]", aspect=30, pad=0.01)
         axes[-1, 0].set_xlabel("time [s] (window centres)")
         fig.suptitle(f"Time-frequency map of coupler forces: 10 s Hann windows, trend removed, "
-                     f"from {2.0 * maps[0][1][1]:.2g} Hz\n(0-{f_top:g} Hz holds 99.5 % of the "
+                     f"from {low:.2g} Hz\n(0-{f_top:g} Hz holds 99.5 % of the "
                      f"content below {f_max:g} Hz; dashed boxes: the study's phases)")
         files.append(_save(fig, folder / "spectrogram.png"))
     return files
