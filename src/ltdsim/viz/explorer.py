@@ -380,6 +380,18 @@ def _header(ds: xr.Dataset, data: PageData, source: str, notes: list[str]) -> st
            f"</p><ul style='margin:0.2em 0'>{omitted}</ul>" if notes else ""))
 
 
+def _legend_above(p) -> None:
+    """Move figure ``p``'s legend above its frame, in one row (it hides no data)."""
+    legend = p.legend[0]
+    legend.orientation = "horizontal"
+    legend.label_text_font_size = "11px"
+    legend.padding = 2
+    legend.margin = 0
+    legend.border_line_alpha = 0.0
+    p.center.remove(legend)
+    p.add_layout(legend, "above")
+
+
 class _Views:
     """The page's figures, the cursors they share, and the callbacks that join them."""
 
@@ -400,6 +412,12 @@ class _Views:
         self.coupler_plots: list = []  # plots a click on which sets the coupler (x)
 
     # --------------------------------------------------------------- helpers
+    def _coupler_axis(self, p) -> None:
+        """Figure ``p``'s x axis counts couplers: whole numbers only."""
+        from bokeh.models import BasicTicker
+
+        p.xaxis.ticker = BasicTicker(min_interval=1)
+
     def _figure(self, title: str, x_label: str, y_label: str, height: int, **kw):
         from bokeh.plotting import figure
 
@@ -437,7 +455,7 @@ class _Views:
     # --------------------------------------------------------------- panels
     def heatmap(self, values: np.ndarray, name: str, title: str, unit: str):
         """A couplers x time heatmap (``values`` couplers x bins, in ``unit``)."""
-        from bokeh.models import ColorBar, HoverTool, LinearColorMapper
+        from bokeh.models import BasicTicker, ColorBar, HoverTool, LinearColorMapper
 
         d = self.data
         p = self._figure(title + " along the train: each time bin's value of largest "
@@ -455,6 +473,7 @@ class _Views:
         p.add_tools(HoverTool(tooltips=[("time", "$x{0.0} s"), ("coupler", "$y{0}"),
                                         (unit, "@image{0.0}")]))
         p.grid.visible = False
+        p.yaxis.ticker = BasicTicker(min_interval=1)
         self._time_span(p)
         self._coupler_span(p, "width")
         self.maps.append(p)
@@ -471,19 +490,18 @@ class _Views:
         src = ColumnDataSource({"x": x, "hi": np.maximum(d.force_a[:, k], d.force_b[:, k]),
                                 "lo": np.minimum(d.force_a[:, k], d.force_b[:, k])},
                                name="profile")
-        p = self._figure("force profile along the train at the time cursor (its range in "
-                         "the time bin; grey: envelope)", "coupler (1 = behind the lead)",
-                         "coupler force (kN, + tension)", 260, name="profile_plot")
+        p = self._figure("force profile at the time cursor (grey: the envelope)",
+                         "coupler (1 = behind the lead)", "coupler force (kN, + tension)",
+                         260, name="profile_plot")
         p.varea(x=x, y1=d.compression, y2=d.tension, color="#dddddd")
         p.varea(x="x", y1="lo", y2="hi", source=src, color=_PALETTE[9], alpha=0.35)
         p.line("x", "hi", source=src, color=_PALETTE[9], line_width=2,
                legend_label="largest in the bin")
         p.line("x", "lo", source=src, color=_PALETTE[1], line_width=2,
                legend_label="smallest in the bin")
-        p.legend.location = "top_right"
-        p.legend.label_text_font_size = "11px"
-        p.legend.background_fill_alpha = 0.6
+        _legend_above(p)
         self._coupler_span(p, "height")
+        self._coupler_axis(p)
         self.coupler_plots.append(p)
         self.profile_source = src
         return p
@@ -496,7 +514,7 @@ class _Views:
         src = ColumnDataSource({"coupler": np.arange(1, d.couplers + 1),
                                 "tension_kN": d.tension, "compression_kN": d.compression,
                                 "zero": np.zeros(d.couplers)}, name="envelope")
-        p = self._figure(f"coupler-force envelope ({d.envelope_source})",
+        p = self._figure("coupler-force envelope: max tension and compression",
                          "coupler (1 = behind the lead)", "coupler force (kN, + tension)",
                          260, name="envelope_plot")
         w = 0.8
@@ -507,10 +525,9 @@ class _Views:
         p.add_tools(HoverTool(tooltips=[("coupler", "@coupler"),
                                         ("max tension", "@tension_kN{0.0} kN"),
                                         ("max compression", "@compression_kN{0.0} kN")]))
-        p.legend.location = "bottom_right"
-        p.legend.label_text_font_size = "11px"
-        p.legend.background_fill_alpha = 0.6
+        _legend_above(p)
         self._coupler_span(p, "height")
+        self._coupler_axis(p)
         self.coupler_plots.append(p)
         return p
 
@@ -573,9 +590,7 @@ class _Views:
             if np.isfinite(r).any():
                 p.line(x, r, color="#777777", line_dash="dashed", line_width=1.2,
                        legend_label="reference")
-        p.legend.location = "top_left"
-        p.legend.label_text_font_size = "11px"
-        p.legend.background_fill_alpha = 0.6
+        _legend_above(p)
         return p
 
     def track(self, ds: xr.Dataset):
@@ -607,9 +622,7 @@ class _Views:
         p.line(x, g, color=_LINES[2], line_width=1.8, legend_label="grade")
         p.line(x, c, color=_LINES[3], line_width=1.4, y_range_name="curv",
                legend_label="curvature")
-        p.legend.location = "top_left"
-        p.legend.label_text_font_size = "11px"
-        p.legend.background_fill_alpha = 0.6
+        _legend_above(p)
         return p, ""
 
     def brakes(self, ds: xr.Dataset):
@@ -630,9 +643,7 @@ class _Views:
             for k, v in enumerate(chosen):
                 p.line(x[:, k], y[:, k], color=_LINES[k % len(_LINES)], line_width=1.4,
                        legend_label=f"vehicle {v + 1}")
-            p.legend.location = "top_right"
-            p.legend.label_text_font_size = "11px"
-            p.legend.background_fill_alpha = 0.6
+            _legend_above(p)
             out.append(p)
         if out:
             return out, ""
@@ -676,18 +687,18 @@ class _Views:
         self.time_cursor.js_on_change("value", update)
         self.coupler_cursor.js_on_change("value", update)
         self.ready = update  # (run once as the page loads: the readout's first text)
-        clamp = ("const c = Math.min(Math.max(v, s.start), s.end);"
-                 "if (s.value !== c) { s.value = c; }")
+        put = ("const put = (s, v) => { const c = Math.min(Math.max(v, s.start), s.end); "
+               "if (s.value !== c) { s.value = c; } };\n")
         for p in self.maps:
             p.js_on_event(Tap, CustomJS(args=dict(ts=self.time_cursor, cs=self.coupler_cursor),
-                                        code="let s = ts, v = cb_obj.x; " + clamp +
-                                        " s = cs; v = Math.round(cb_obj.y); " + clamp))
+                                        code=put + "put(ts, cb_obj.x); "
+                                                   "put(cs, Math.round(cb_obj.y));"))
         for p in self.coupler_plots:
             p.js_on_event(Tap, CustomJS(args=dict(cs=self.coupler_cursor),
-                                        code="let s = cs, v = Math.round(cb_obj.x); " + clamp))
+                                        code=put + "put(cs, Math.round(cb_obj.x));"))
         for p in self.time_plots:
             p.js_on_event(Tap, CustomJS(args=dict(ts=self.time_cursor),
-                                        code="let s = ts, v = cb_obj.x; " + clamp))
+                                        code=put + "put(ts, cb_obj.x);"))
 
 
 def _offsets(index: np.ndarray, edges: np.ndarray) -> np.ndarray:
