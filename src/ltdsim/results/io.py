@@ -179,6 +179,7 @@ def load_result(path: str | Path, needs: tuple[str, ...] = RESULT_VARS,
     _check_result_file(path)
     try:
         with xr.open_dataset(path, engine="h5netcdf") as ds:
+            missing = [v for v in RESULT_DIMS if v not in ds.dims]
             if keep is not None:
                 ds = ds[[v for v in ds.data_vars if v in keep]]
             ds = ds.load()
@@ -186,7 +187,6 @@ def load_result(path: str | Path, needs: tuple[str, ...] = RESULT_VARS,
         raise
     except Exception as exc:  # noqa: BLE001 - h5py, h5netcdf and xarray raise many kinds
         raise _bad(path, _damage(path, exc)) from None
-    missing = [v for v in RESULT_DIMS if v not in ds.dims]
     missing += [v for v in needs if v not in ds.variables]
     if "scenario_json" not in ds.attrs:
         missing.append("the scenario_json attribute")
