@@ -257,3 +257,18 @@ def test_the_page_works_in_headless_chromium(tmp_path, short_result):
         assert not page_wide
         assert errors == []
         assert shot.stat().st_size > 10_000
+
+
+def test_the_page_of_a_long_noisy_run_stays_a_few_megabytes(tmp_path):
+    # 30,000 samples of 250 couplers of noise (what compresses worst), and velocities
+    rng = np.random.default_rng(3)
+    n, k = 30_000, 250
+    t = 0.5 * np.arange(n)
+    ds = xr.Dataset({"coupler_force": (("time", "coupler"), rng.normal(0, 3e5, (n, k))),
+                     "coupler_deflection": (("time", "coupler"), rng.normal(0, 0.03, (n, k))),
+                     "velocity": (("time", "vehicle"), rng.normal(15, 1, (n, k + 1)))},
+                    coords={"time": t, "coupler": np.arange(k), "vehicle": np.arange(k + 1)})
+    path, data, notes = write_page(ds, tmp_path / "noise.html", "noise.nc")
+    assert data.bins < n and explorer._ARRAYS * k * data.bins <= explorer.MAX_VALUES
+    assert path.stat().st_size < 5.5e6, path.stat().st_size
+    assert any("track" in note for note in notes)  # (no positions: the panel left out)

@@ -672,7 +672,7 @@ class _Views:
         args = dict(
             ts=self.time_cursor, cs=self.coupler_cursor, B=d.bins, NC=d.couplers,
             start=d.start.astype(float), centre=d.centre.astype(float),
-            tsamp=d.t.astype(float), edge=d.edges[:-1].astype(np.int32),
+            **_sample_clock(d.t), edge=d.edges[:-1].astype(np.int32),
             oa=_offsets(d.index_a, d.edges), ob=_offsets(d.index_b, d.edges),
             fa=d.force_a.astype(f32).ravel(), fb=d.force_b.astype(f32).ravel(),
             da=None if d.defl_a is None else d.defl_a.astype(f32).ravel(),
@@ -701,6 +701,18 @@ class _Views:
                                         code=put + "put(ts, cb_obj.x);"))
 
 
+def _sample_clock(t: np.ndarray) -> dict:
+    """How the page's script finds sample i's time (s): ``t0 + i dt`` for evenly spaced
+    samples (an ltdsim result's), so that the page does not carry a time for every
+    sample; the times themselves (``tsamp``) only for a result whose samples are not
+    evenly spaced."""
+    n = len(t)
+    dt = float(t[-1] - t[0]) / (n - 1) if n > 1 else 0.0
+    even = n < 2 or np.allclose(t, t[0] + np.arange(n) * dt, rtol=0.0,
+                                atol=1e-9 * max(1.0, float(np.abs(t).max())))
+    return {"t0": float(t[0]), "dt": dt, "tsamp": None if even else t.astype(float)}
+
+
 def _offsets(index: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """Couplers x bins sample indices as their places in their bins, flattened, in the
     smallest unsigned integers that hold them (16 bits unless a bin is longer)."""
@@ -726,7 +738,9 @@ if (hist.tags.length === 0 || hist.tags[0] !== j) {
   const hy = new Float64Array(2 * B), ht = new Float64Array(2 * B);
   for (let m = 0; m < B; m++) {
     hy[2 * m] = fa[j * B + m]; hy[2 * m + 1] = fb[j * B + m];
-    ht[2 * m] = tsamp[edge[m] + oa[j * B + m]]; ht[2 * m + 1] = tsamp[edge[m] + ob[j * B + m]];
+    const i1 = edge[m] + oa[j * B + m], i2 = edge[m] + ob[j * B + m];
+    ht[2 * m] = tsamp === null ? t0 + i1 * dt : tsamp[i1];
+    ht[2 * m + 1] = tsamp === null ? t0 + i2 * dt : tsamp[i2];
   }
   hist.data = {t: ht, force: hy};
   hist.tags = [j];
