@@ -1,6 +1,6 @@
-"""The ``ltdsim`` application: the commands of each group (``run``, ``gear``, ``curve``,
-``analyse``, ``sweep``, ``makeup``, ``study``, ``brake-test``) gathered into one typer app, in the order ``ltdsim
---help`` lists them, and the ``--version`` flag.
+"""The ``ltdsim`` application: the commands of each group (``run``, ``view``, ``gear``,
+``curve``, ``analyse``, ``sweep``, ``makeup``, ``study``, ``brake-test``) gathered into one
+typer app, in the order ``ltdsim --help`` lists them, and the ``--version`` flag.
 
 Usage: ``ltdsim COMMAND ...`` (the console entry) or ``python -m ltdsim.cli.app COMMAND``.
 """
@@ -12,7 +12,7 @@ from typing import Annotated
 
 import typer
 
-from ltdsim.cli import analyse, braketest, curve, gear, makeup, run, study, sweep
+from ltdsim.cli import analyse, braketest, curve, gear, makeup, run, study, sweep, view
 from ltdsim.cli.common import console
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
@@ -46,6 +46,7 @@ def _main(
 
 
 app.command()(run.run)
+app.command()(view.view)
 app.add_typer(gear.gear_app, name="gear")
 app.command("curve-limit")(curve.curve_limit_cmd)
 app.command()(gear.reduce)

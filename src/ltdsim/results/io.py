@@ -149,8 +149,24 @@ RESULT_VARS = ("position", "velocity", "acceleration", "coupler_deflection", "co
 _HDF5 = b"\x89HDF\r\n\x1a\n"
 
 
-def load_result(path: str | Path) -> xr.Dataset:
+def load_result(path: str | Path, needs: tuple[str, ...] = RESULT_VARS,
+                keep: tuple[str, ...] | None = None, purpose: str = "") -> xr.Dataset:
     """Read a result written by :func:`save_result` into memory.
+
+    Parameters
+    ----------
+    path : str or Path
+        The result file (.nc, netCDF-4).
+    needs : tuple of str
+        The variables the caller cannot do without (by default every variable a whole
+        recording holds); a result without one of them is refused.
+    keep : tuple of str, optional
+        Read only these data variables (those of them the file holds) and the
+        coordinates, to spare the time and memory of the others; None: all of them.
+    purpose : str
+        What ``needs`` are for, in a few words ("the viewer draws from it"), said when
+        a result written by ltdsim lacks one of them; empty: the whole recording is
+        read.
 
     Raises
     ------
@@ -163,18 +179,25 @@ def load_result(path: str | Path) -> xr.Dataset:
     _check_result_file(path)
     try:
         with xr.open_dataset(path, engine="h5netcdf") as ds:
+            missing = [v for v in RESULT_DIMS if v not in ds.dims]
+            if keep is not None:
+                ds = ds[[v for v in ds.data_vars if v in keep]]
             ds = ds.load()
     except MemoryError:
         raise
     except Exception as exc:  # noqa: BLE001 - h5py, h5netcdf and xarray raise many kinds
         raise _bad(path, _damage(path, exc)) from None
-    missing = [v for v in RESULT_DIMS if v not in ds.dims]
-    missing += [v for v in RESULT_VARS if v not in ds.variables]
+    missing += [v for v in needs if v not in ds.variables]
     if "scenario_json" not in ds.attrs:
         missing.append("the scenario_json attribute")
     if missing:
         shown = ", ".join(missing[:6]) + (f" and {len(missing) - 6} more" if len(missing) > 6
                                           else "")
+        if "scenario_json" in ds.attrs and "ltdsim_version" in ds.attrs and purpose:
+            raise _bad(path, f"a result written by ltdsim that lacks {shown} ({purpose}): "
+                             "its run recorded only some time series (solver.record); "
+                             "name it in solver.record, or leave solver.record out, and "
+                             "run the scenario again")
         if "scenario_json" in ds.attrs and "ltdsim_version" in ds.attrs:
             # an ltdsim result of a run that recorded a selection (solver.record)
             raise _bad(path, f"a result written by ltdsim that lacks {shown}: its run "
@@ -194,6 +217,12 @@ def load_result(path: str | Path) -> xr.Dataset:
 
 def _bad(path: Path, why: str) -> ScenarioError:
     return ScenarioError(str(path), [("", why)])
+
+
+def check_result_file(path: str | Path) -> None:
+    """Refuse, by its first bytes and before any reading, what cannot be a netCDF-4
+    result (a ScenarioError in one line naming the file, as :func:`load_result`)."""
+    _check_result_file(Path(path))
 
 
 def _check_result_file(path: Path) -> None:
