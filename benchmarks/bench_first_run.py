@@ -6,7 +6,11 @@ cache (a fresh ``NUMBA_CACHE_DIR``, so every kernel is compiled):
   (a) ``ltdsim run scenarios/paper.toml`` as a subprocess; then the same command again
       with the cache it filled: the difference is what the first run pays (compiling);
   (b) ``make run`` (``ltdsim study scenarios/paper.toml --output report``);
-  (c) the warm kernel: one case of the base scenario, after compilation, several times.
+  (c) the warm kernel: one case of the base scenario, after compilation, several times;
+  (d) with ``--fresh-machine``: as a new user does it, in a fresh clone of HEAD with no
+      environment: ``make run`` (the virtual environment created and the project
+      installed, from pip's download cache where it holds the wheels, then the study),
+      then ``make test`` in the same clone (every test, on all cores).
 
 Each is measured for this checkout (HEAD, committed code only) and for a reference
 commit (``--reference``, default: the last commit before the first-run work), in the
@@ -19,7 +23,7 @@ of the child and its worker processes, from ``getrusage``) are given beside them
 the ratios are taken on CPU seconds.
 
 Usage: python benchmarks/bench_first_run.py [--rounds 1] [--reference REV]
-       [--no-reference] [--skip-study] [--kernel-repeats 5]
+       [--no-reference] [--skip-study] [--kernel-repeats 5] [--fresh-machine]
 """
 
 from __future__ import annotations
@@ -106,6 +110,21 @@ def _make_run(clone: Path, work: Path, tag: str) -> tuple[float, float]:
     return _timed(cmd, clone, _env(clone, cache), work / f"make-run-{tag}.log")
 
 
+def _fresh_machine(work: Path) -> dict:
+    """(d): ``make run`` then ``make test`` in a fresh clone of HEAD, which installs its
+    own environment; (wall s, CPU s) of each."""
+    clone = _clone("HEAD", work / "clone-fresh")
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PYTHONPATH", "NUMBA_CACHE_DIR", "VIRTUAL_ENV", "COLUMNS")}
+    out = {}
+    for target in ("run", "test"):
+        out[target] = _timed(["make", "--no-print-directory", target], clone, env,
+                             work / f"fresh-make-{target}.log")
+        print(f"fresh clone: make {target} {out[target][0]:.0f} s wall", file=sys.stderr,
+              flush=True)
+    return out
+
+
 def _kernel(clones: dict, caches: dict, repeats: int) -> dict:
     """Warm kernel, one case per call, alternating between the versions."""
     procs = {tag: subprocess.Popen([sys.executable, "-c", _SERVER], cwd=clones[tag],
@@ -133,6 +152,8 @@ def main(argv=None) -> dict:
     ap.add_argument("--no-reference", action="store_true", help="measure HEAD only")
     ap.add_argument("--skip-study", action="store_true", help="skip (b), make run")
     ap.add_argument("--kernel-repeats", type=int, default=5)
+    ap.add_argument("--fresh-machine", action="store_true",
+                    help="(d): make run and make test in a fresh clone that installs itself")
     ap.add_argument("--out", type=Path, default=HERE / "results")
     args = ap.parse_args(argv)
 
@@ -159,6 +180,7 @@ def main(argv=None) -> dict:
                     print(f"round {r + 1} {tag}: make run {res[tag]['study'][-1][0]:.1f} s wall",
                           file=sys.stderr, flush=True)
         kern = _kernel(clones, caches, args.kernel_repeats)
+        fresh = _fresh_machine(work) if args.fresh_machine else {}
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
@@ -204,12 +226,20 @@ def main(argv=None) -> dict:
         ratios = [n["cpu"] / o["cpu"] for o, n in zip(kern["ref"], kern["new"])]
         rows.append(("warm kernel new / reference, CPU s (median of the per-round ratios)",
                      f"{statistics.median(ratios):.3f}"))
+    for target, what in (("run", "install and the study"), ("test", "every test")):
+        if target in fresh:
+            rows.append((f"{revs['new']}: fresh clone, no environment: `make {target}` "
+                         f"({what}), wall s / CPU s",
+                         f"{fresh[target][0]:.0f} / {fresh[target][1]:.0f}"))
     load = os.getloadavg()[0]
     publish(args.out, "bench_first_run",
             f"First-run benchmark, {{stamp}}; fresh clones, empty numba caches, the installed "
             f"environment reused; {args.rounds} round(s), reference then new; load average "
-            f"at the end {load:.1f}", rows,
-            result={"revisions": revs, "runs": res, "kernel": kern, "load_average": load})
+            f"at the end {load:.1f}"
+            + ("; last, a fresh clone that installs its own environment" if fresh else ""),
+            rows,
+            result={"revisions": revs, "runs": res, "kernel": kern, "fresh_machine": fresh,
+                    "load_average": load})
     return res
 
 
