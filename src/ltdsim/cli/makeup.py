@@ -121,16 +121,20 @@ def _summary(output: Path) -> None:
     if pct.empty:
         say("no run finished")
         return
-    table = plain_table("largest force of a run", ("manoeuvre", "force", "runs", "P50 [kN]",
-                                                  "P95 [kN]", "largest [kN]",
-                                                  "exceeding / judged", "P(exceed) [-]",
-                                                  "interval [-]"))
+    # narrow enough for an 80-column terminal: the probability and its interval share a
+    # column, the manoeuvre's name is never cut
+    table = plain_table("largest force of a run (P: share of the runs judged over the limit, "
+                        "95 % interval)", ("manoeuvre", "force", "runs", "P50 [kN]",
+                                           "P95 [kN]", "max [kN]", "over limit", "P [-]"))
+    table.columns[0].no_wrap = True
+    table.columns[0].justify = "left"
+    table.columns[-1].no_wrap = True
     lo = next((c for c in exc.columns if c.endswith("_low")), None)
     hi = next((c for c in exc.columns if c.endswith("_high")), None)
     for r, e in zip(pct.itertuples(), exc.itertuples()):
         judged = int(e.runs_with_limits)
         table.add_row(r.manoeuvre, r.force, str(r.runs), f"{r.p50_kN:.0f}", f"{r.p95_kN:.0f}",
-                      f"{r.max_kN:.0f}", f"{int(e.runs_exceeding)} / {judged}",
-                      f"{e.probability:.3f}" if judged else "no limits",
-                      f"{getattr(e, lo):.3f}-{getattr(e, hi):.3f}" if judged else "")
+                      f"{r.max_kN:.0f}", f"{int(e.runs_exceeding)}/{judged}",
+                      f"{e.probability:.2f} ({getattr(e, lo):.2f}-{getattr(e, hi):.2f})"
+                      if judged else "no limits")
     console.print(table)
