@@ -20,8 +20,6 @@
 # F m_behind,j / M. The run must reproduce that closed form, whatever the gear.
 
 # %%
-import copy
-
 import numpy as np
 
 import ltdsim
