@@ -16,15 +16,12 @@ from html.parser import HTMLParser
 from pathlib import Path
 from urllib.parse import unquote, urlsplit
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 
 
-@pytest.fixture(scope="module")
-def site(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("site") / "site"
+def build(tmp: Path) -> Path:
+    out = tmp / "site"
     env = {**os.environ, "NO_MKDOCS_2_WARNING": "1"}
     proc = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet",
                            "-f", str(ROOT / "mkdocs.yml"), "--site-dir", str(out)],
@@ -98,7 +95,7 @@ def test_every_docs_page_is_in_the_nav():
     assert named - on_disk == set()
 
 
-def test_every_nav_page_is_rendered_with_its_content(site):
+def check_every_nav_page_is_rendered_with_its_content(site):
     for page in nav_pages():
         html = site / (page[:-3] + ".html")
         assert html.is_file(), page
@@ -111,7 +108,7 @@ def test_every_nav_page_is_rendered_with_its_content(site):
     assert "simulate" in api and "Parameters" in api
 
 
-def test_every_internal_link_resolves(site):
+def check_every_internal_link_resolves(site):
     pages = sorted(site.rglob("*.html"))
     assert len(pages) >= len(nav_pages())
     ids = {}
@@ -140,3 +137,10 @@ def test_every_internal_link_resolves(site):
                     broken.append(f"{page.relative_to(site)}: {link} (no such anchor)")
     assert checked > 1000
     assert broken == [], "\n".join(broken[:40])
+
+
+def test_the_site_builds_strict_with_every_page_and_link(tmp_path):
+    # one build for both checks (a module fixture would build once per xdist worker)
+    site = build(tmp_path)
+    check_every_nav_page_is_rendered_with_its_content(site)
+    check_every_internal_link_resolves(site)
