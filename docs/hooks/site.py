@@ -105,8 +105,9 @@ def tutorial_markdown(script: str, name: str) -> str:
         else:
             parts.append(f"```python\n{src}\n```")
     parts.append(f"The script of this page: [{name}]({name}) (run it with "
-                 f"`python {name}` from the repository's root, or open it in Jupyter "
-                 "with jupytext).")
+                 f"`python docs/tutorials/{name}` from any folder, it writes into "
+                 "`results/` there; or open it in Jupyter with jupytext). This page is "
+                 "not executed when the site is built; the tests run the script.")
     return "\n\n".join(parts) + "\n"
 
 
