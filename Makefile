@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: run test bench clean
+.PHONY: run test bench docs clean
 
 # create the virtual environment and install ltdsim with its test tools
 $(STAMP): pyproject.toml
@@ -37,5 +37,9 @@ bench: $(STAMP)
 	  $(BIN)/python benchmarks/bench_reference_instructions.py; \
 	else echo "bench: valgrind not installed, instruction counts skipped"; fi
 
+## docs: the documentation site into site/ (MkDocs Material; warnings are errors)
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict --site-dir site
+
 clean:
-	rm -rf $(VENV) results .pytest_cache .hypothesis
+	rm -rf $(VENV) results site .pytest_cache .hypothesis

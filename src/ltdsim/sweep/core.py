@@ -619,6 +619,13 @@ def run_sweep(sweep: Sweep, out: str | Path, *, scheduler: str | None = None,
         ``notice(line)`` for each case found damaged on disk and run again
         ("recomputing case <id>: <why>"); logged as a warning if None.
 
+    Returns
+    -------
+    pandas.DataFrame
+        The sweep's summary, one row per case (:func:`summary_table`).
+
+    Notes
+    -----
     A case record (``cases/<id>.json``) holds the hash of its own content and, with
     ``keep_results``, the size and content hash of its ``cases/<id>.nc``: a record or a
     time series that is unreadable, truncated, emptied, deleted or altered is reported
