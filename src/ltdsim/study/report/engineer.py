@@ -105,7 +105,7 @@ def envelopes(rep: Report, ds) -> None:
     ax.set_title(f"Coupler-force envelopes along the train, case {rep.case}: largest "
                  "tension (solid) and compression (dashed)", fontsize=9)
     fig.tight_layout()
-    path = rep.out / "fig_envelopes.png"
+    path = rep.out / "report_envelopes.png"
     fig.savefig(path)
     plt.close(fig)
     whole = te[te.phase == "whole run"]
@@ -197,7 +197,7 @@ def cases(rep: Report) -> None:
     fig.suptitle("The cases over the coupler's four factors (blank: case not run)",
                  fontsize=10)
     fig.tight_layout()
-    path = rep.out / "fig_cases_heatmap.png"
+    path = rep.out / "report_cases_heatmap.png"
     fig.savefig(path)
     plt.close(fig)
     worst = tc.loc[tc["peak tension [kN]"].idxmax(), "case"]
@@ -257,7 +257,7 @@ def track(rep: Report, ds) -> None:
         axes[0].text(0.5 * (p.start + min(p.end, t[-1])), axes[0].get_ylim()[1],
                      p.name.replace("_", " "), ha="center", va="top", fontsize=7)
     fig.tight_layout()
-    path = rep.out / "fig_track.png"
+    path = rep.out / "report_track.png"
     fig.savefig(path)
     plt.close(fig)
     rep.parts += [
@@ -308,7 +308,7 @@ def gear_travel(rep: Report, ds) -> None:
     ax.legend(fontsize=8)
     ax.set_title(f"Gear travel per coupler, case {rep.case}", fontsize=9)
     fig.tight_layout()
-    path = rep.out / "fig_gear_travel.png"
+    path = rep.out / "report_gear_travel.png"
     fig.savefig(path)
     plt.close(fig)
     beyond = [int(j) for j in tg.loc[tg["beyond the travel [mm]"] > 0.0,

@@ -244,7 +244,9 @@ def _why_large(rep: Report, t4: pd.DataFrame) -> str:
             f"{m_train / 1e3:.0f} t. A first wagon that merely follows coupler 1 "
             f"therefore reaches about {m_train / m_wagon:.1f} times ΔF / M, twice that when "
             "the coupler overshoots as an undamped spring does. What damping shows is "
-            "coupler 1's peak over its steady force change (2 for an undamped spring) and "
+            "coupler 1's peak over its steady force change (2 for one undamped spring "
+            "between two masses; in a chain the waves reflected from the other couplers "
+            "can add to it) and "
             "how long its force takes to settle within ±5 % of that change: "
             f"with coupler damping ratios ζ = b / 2√(k1 m) of {span(zeta, '.2f')} % "
             "(m half a wagon's mass, ltdsim's reading of Eq. 9: "
@@ -380,7 +382,8 @@ def _step_tables(rep: Report, rows4) -> None:
         rep.take.append(
             "The couplers ring after a force change in every case: a force step makes "
             f"coupler 1's force change peak at {span(ratio, '.2f')} times its steady change "
-            f"(least in case <b>{best_train[0]}</b>; 2 would be an undamped spring) and "
+            f"(least in case <b>{best_train[0]}</b>; one undamped spring between two masses "
+            "gives 2) and "
             + (f"stay outside ±5 % of it for {span(decay.dropna(), '.0f')} s"
                + (f" ({unsettled} of {len(decay)} cases longer than the 60 s record)"
                   if unsettled else "")
