@@ -111,6 +111,9 @@ def envelopes(rep: Report, ds) -> None:
     whole = te[te.phase == "whole run"]
     jt = int(whole.loc[whole["max tension [kN]"].idxmax(), col])
     jc = int(whole.loc[whole["max compression [kN]"].idxmax(), col])
+    where = (f"tension peak at coupler {jt} and compression at coupler {jc}"
+             if whole["max compression [kN]"].max() > 0 else
+             f"tension peak at coupler {jt} (no coupler is compressed)")
     rep.parts += [
         "<h3 id='envelopes'>Coupler-force envelopes along the train</h3>",
         "<p class='note'>For every coupler its largest tension and its largest "
@@ -119,9 +122,8 @@ def envelopes(rep: Report, ds) -> None:
         "a coupler and its gear must carry; the phases say when.</p>",
         figure_html(path, f"Coupler-force envelopes, case {rep.case}: largest tension "
                     "(solid, up) and compression (dashed, down) of each coupler, kN, per "
-                    f"phase and over the whole run (black). See tension peak at coupler "
-                    f"{jt} and compression at coupler {jc}, and how the phases order the "
-                    "loads along the train"),
+                    f"phase and over the whole run (black). See {where}, and how the "
+                    "phases order the loads along the train"),
         csv_table(te, rep.out, "coupler_envelopes.csv")]
 
 
@@ -311,8 +313,8 @@ def gear_travel(rep: Report, ds) -> None:
     path = rep.out / "report_gear_travel.png"
     fig.savefig(path)
     plt.close(fig)
-    beyond = [int(j) for j in tg.loc[tg["beyond the travel [mm]"] > 0.0,
-                                     "coupler [1 = behind the locomotive]"]]
+    # (beyond by more than the check's resolution, as the run's own warning counts them)
+    beyond = [int(j) + 1 for j in np.flatnonzero(g.exceeds.to_numpy())]
     k = int(gears[0])
     stated = bool(g.travel_stated.iloc[0])
     rep.parts += [
