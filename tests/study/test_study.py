@@ -198,13 +198,9 @@ def test_the_envelopes_match_the_run_and_the_cases_table_matches_each_case(repor
         assert r["largest wagon |acceleration| [m/s²]"] == pytest.approx(
             max(s["max_abs_acceleration_m_s2"][1:]), rel=1e-5)
         assert r["RMS speed error [m/s]"] == pytest.approx(s["rms_speed_error_m_s"], rel=1e-5)
-        # a factor at H has the larger of the two values the cases give it
-        c = load_scenario(scenario).with_case(r["case"]).coupler(0)
-        other = load_scenario(scenario).with_case(
-            ({"LHHL", "HHHH"} - {r["case"]}).pop()).coupler(0)
-        for f, key in (("k1", "k1"), ("k2", "k2"), ("k3", "k3"), ("b", "damping")):
-            mine, theirs = getattr(c, key), getattr(other, key)
-            assert r[f"{f} level"] == ("H" if mine > theirs * (1 + 1e-9) else "L")
+        # the study names its cases by the levels of b, k1, k2 and k3, in that order
+        for f, letter in zip(("b", "k1", "k2", "k3"), r["case"]):
+            assert r[f"{f} level"] == letter, (r["case"], f)
 
 
 @pytest.mark.parametrize("gears", [1, 2])

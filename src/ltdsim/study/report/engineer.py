@@ -91,8 +91,9 @@ def envelopes(rep: Report, ds) -> None:
     for k, name in enumerate(names):
         d = te[te.phase == name]
         whole = name == "whole run"
-        style = dict(color="k" if whole else colours(k), lw=2.2 if whole else 1.3,
-                     marker="o", ms=3.5)
+        style = dict(color="k" if whole else colours(k), lw=3.0 if whole else 1.3,
+                     marker="o", ms=4.5 if whole else 3.0, zorder=1 if whole else 3,
+                     alpha=0.55 if whole else 1.0)
         ax.plot(d[col], d["max tension [kN]"], label=name.replace("_", " "), **style)
         ax.plot(d[col], -d["max compression [kN]"], ls="--", **style)
     ax.axhline(0.0, color="0.6", lw=0.8)
@@ -130,15 +131,25 @@ def envelopes(rep: Report, ds) -> None:
 # (b) the cases over the four factors
 def case_levels(rep: Report) -> dict[str, dict[str, str]]:
     """Each case's level, "L" or "H", of each of the four factors (:data:`FACTORS`),
-    read from its coupler's values: the lower of the two values the cases give a factor
-    is L. A factor with one value only is "L" in every case."""
+    read from its coupler's values: the nearer of the study's Table 1 low and high values
+    (its simplified model's two sets). Without them, the lower of the values the cases
+    give a factor is L."""
     values = {}
     for name in rep.sc.cases:
         c = rep.sc.with_case(name).coupler(0)
         values[name] = {f: float(getattr(c, key)) for f, key in FACTORS}
-    low = {f: min(v[f] for v in values.values()) for f, _ in FACTORS}
-    return {n: {f: ("L" if np.isclose(v[f], low[f]) else "H") for f, _ in FACTORS}
-            for n, v in values.items()}
+    table = (rep.T.get("table1") or {}).get("simplified_model") or {}
+    ref = {f: table.get(col) for f, col in zip([f for f, _ in FACTORS],
+                                               ("k1_N_m", "k2_N_m", "k3_N_m", "b_N_s_m"))}
+
+    def level(f, v):
+        pair = ref.get(f)
+        if pair and len(pair) == 2:
+            return "H" if abs(v - pair[1]) < abs(v - pair[0]) else "L"
+        low = min(x[f] for x in values.values())
+        return "L" if np.isclose(v, low) else "H"
+
+    return {n: {f: level(f, v[f]) for f, _ in FACTORS} for n, v in values.items()}
 
 
 def case_table(rep: Report) -> pd.DataFrame:
@@ -207,7 +218,8 @@ def cases(rep: Report) -> None:
         "<h3 id='cases'>The cases over the four factors</h3>",
         "<p class='note'>Each case sets the recoil stiffness k1, the nonlinear stiffness "
         "k2, the linear stiffness k3 and the damping b at a low (L) or high (H) value "
-        "(Table 1's two sets; the levels are read from the cases' values). Per case: the "
+        "(Table 1's two sets; each case's levels are read from its values, the nearer of "
+        "the two). Per case: the "
         "largest tension and compression over all couplers, the largest |acceleration| "
         "of a wagon and the RMS speed error, over the whole run.</p>",
         table_html(tc), csv_table(tc, rep.out, "cases_summary.csv"),
