@@ -74,9 +74,12 @@ def step_physics(ds, t0: float, step: float, mass: float, first_mass: float,
     ``step`` times the share of the mass behind it, ``(mass - first_mass) / mass`` with
     ``first_mass`` the lead vehicle's (kg) (N); ``coupler_peak_to_steady``, the
     largest change of coupler 1's force over that (-; 2 for an undamped spring meeting
-    a step); and ``decay_time_s``, the time after the step from which coupler 1's force
+    a step); ``decay_time_s``, the time after the step from which coupler 1's force
     change stays within ``band`` (a share, default 5 %) of the steady change (s; NaN
-    when it has not by the record's end)."""
+    when it has not by the record's end); and ``ringing_first``, ``ringing_last``, the
+    largest departure of coupler 1's force change from the steady change over the first
+    and the last 10 s after the step, as shares of the steady change (-): how fast the
+    ringing dies."""
     t = ds.time.values
     before = (t > 0.5 * t0) & (t < t0)
     after = t > t0
@@ -94,6 +97,9 @@ def step_physics(ds, t0: float, step: float, mass: float, first_mass: float,
             "steady_coupler_change_N": float(steady),
             "coupler_peak_to_steady": float(np.max(df) / steady),
             "decay_time_s": float(last) if last < ends else float("nan"),
+            "ringing_first": float(np.max(np.abs(df - steady)[tt <= 10.0]) / abs(steady)),
+            "ringing_last": float(np.max(np.abs(df - steady)[tt >= tt[-1] - 10.0])
+                                  / abs(steady)),
             "band": band}
 
 
