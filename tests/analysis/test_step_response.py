@@ -42,3 +42,37 @@ def test_a_force_step_makes_the_wagon_ring_as_the_two_body_closed_form_says(zeta
     assert abs(info["Overshoot"] - overshoot) < 0.5 + 0.01 * overshoot
     if z == 0.0:  # undamped: the wagon's acceleration swings to twice the rigid pair's
         assert abs(info["Peak"] - 2.0) < 1e-2 and math.isnan(info["SettlingTime"])
+
+
+@settings(max_examples=4, deadline=None)
+@given(zeta=st.floats(0.0, 0.3), m2=st.floats(20e3, 120e3), k=st.floats(1e6, 1e7))
+def test_the_force_step_in_physical_units_is_the_two_body_closed_form(zeta, m2, k):
+    """step_physics on a locomotive and one wagon: the rigid pair's F/M, the coupler's
+    steady change F m2 / (m1 + m2), and its peak over that, the time it settles within
+    5 % and its ringing, all as the closed form (the coupler's force change is m2 times
+    the wagon's change of acceleration)."""
+    from ltdsim.analysis.experiments import force_step_run, step_physics
+
+    m1, step = 80e3, 5e4
+    mu = m1 * m2 / (m1 + m2)
+    c = 2.0 * zeta * math.sqrt(k * mu)
+    sc = build(train_dict([m1, m2], dt=1e-4, output_interval=1e-4, t_end=1.0,
+                          coupler={"model": "linear", "stiffness": k, "damping": c,
+                                   "slack": 0.0}))
+    ds, t0, step, mass = force_step_run(sc, speed=5.0, step=step, settle=0.5, duration=4.0)
+    ph = step_physics(ds, t0, step, mass, sc.vehicles[0].mass)
+    t = ds.time.values
+    tt = t[t > t0] - t0
+    exact, _ = two_body_response(tt, m1, m2, k, c)
+    assert math.isclose(ph["rigid_acceleration_m_s2"], step / (m1 + m2), rel_tol=1e-12)
+    assert math.isclose(ph["steady_coupler_change_N"], step * m2 / (m1 + m2), rel_tol=1e-12)
+    assert abs(ph["coupler_peak_to_steady"] - exact.max()) < 1e-2
+    assert abs(ph["peak_acceleration_m_s2"] - exact.max() * step / (m1 + m2)) \
+        < 1e-2 * exact.max() * step / (m1 + m2)
+    assert abs(ph["ringing_first"] - np.abs(exact - 1.0).max()) < 1e-2
+    out = np.abs(exact - 1.0) > 0.05
+    settled = tt[out][-1] if out.any() else 0.0
+    if settled < tt[-1] - 0.2:
+        assert abs(ph["decay_time_s"] - settled) < 0.05
+    else:
+        assert math.isnan(ph["decay_time_s"]) or ph["decay_time_s"] > tt[-1] - 0.3

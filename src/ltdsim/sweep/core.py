@@ -498,8 +498,9 @@ def _sysid_record(ds, scenario: Scenario) -> dict:
     """Identification of the first wagon's acceleration from the locomotive force per
     unit of train mass (so a rigid train's transfer function is 1, as the study's
     Appendix II models are at 0 Hz), at 10 ms, with its step and ramp metrics; and the
-    same metrics of the physical step response (:func:`ltdsim.analysis.experiments.force_step`)."""
-    from ltdsim.analysis.experiments import force_step, step_info
+    same metrics of the physical step response (:func:`ltdsim.analysis.experiments.force_step`)
+    and its physical quantities (:func:`ltdsim.analysis.experiments.step_physics`)."""
+    from ltdsim.analysis.experiments import force_step_run, step_info, step_physics
     from ltdsim.analysis.identify import identify_result, prediction_fit
     from ltdsim.analysis.response import ramp_error, step_metrics
 
@@ -510,7 +511,12 @@ def _sysid_record(ds, scenario: Scenario) -> dict:
     y = ds.acceleration.values[:, 1] if ds.sizes["vehicle"] > 1 else ds.acceleration.values[:, 0]
     info = step_metrics(m.tf())
     dc = float(np.sum(m.b) / np.sum(m.a))
-    t, r = force_step(scenario, output=1 if ds.sizes["vehicle"] > 1 else 0)
+    out = 1 if ds.sizes["vehicle"] > 1 else 0
+    run, t0, step, total = force_step_run(scenario)
+    tr = run.time.values
+    before, after = (tr > 0.5 * t0) & (tr < t0), tr >= t0 + scenario.solver.dt
+    acc = run.acceleration.values[:, out]
+    t, r = tr[after] - t0, (acc[after] - acc[before].mean()) / (step / total)
     return {"sample_time_s": m.dt, "numerator": m.b.tolist(), "denominator": m.a.tolist(),
             "input": "locomotive force / train mass, m/s^2",
             "dc_gain": dc,
@@ -522,7 +528,11 @@ def _sysid_record(ds, scenario: Scenario) -> dict:
             "step": {k: float(v) for k, v in info.items()},
             # the lag of the ramp response once the model is scaled to unit DC gain, s
             "ramp_error": ramp_error(m.tf() / dc) if dc else float("inf"),
-            "force_step": step_info(t, r)}
+            "force_step": step_info(t, r),
+            # the same step in physical units (m/s^2, N, s), coupler 1's force with it
+            "force_step_physics": (step_physics(run, t0, step, total,
+                                                scenario.vehicles[0].mass, out)
+                                   if run.sizes.get("coupler", 0) else {})}
 
 
 # ------------------------------------------------------------------------ sweeps

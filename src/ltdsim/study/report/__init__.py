@@ -8,7 +8,7 @@ vehicle 1 is the locomotive at the front, coupler ``j`` joins vehicles ``j`` and
 
 ``page`` holds the ``Report`` that collects the parts and assembles the page; each
 section is a module (``base_run`` with the model readings, ``fitting``, ``phases``,
-``frequency``) of functions that add their part to it; ``html`` the building blocks;
+``frequency``, ``engineer``: envelopes, the cases' heatmaps, the track, gear travel) of functions that add their part to it; ``html`` the building blocks;
 ``run_page`` the one-page report of a single run (``ltdsim run --report``). It reads
 the stage results the study computed and never simulates; it may import the layers below
 the study (results, analysis, viz, scenario), nothing imports it but ``study.stages``
@@ -21,7 +21,7 @@ from pathlib import Path
 
 from ltdsim.results.io import atomic_path
 from ltdsim.scenario import Scenario
-from ltdsim.study.report import base_run, fitting, frequency, phases
+from ltdsim.study.report import base_run, engineer, fitting, frequency, phases
 from ltdsim.study.report.page import Report
 from ltdsim.study.report.run_page import (
     curving_section,
@@ -46,6 +46,7 @@ def write_report(out: Path, results: dict, scenario: Scenario, case: str,
     phases.phases(rep)
     frequency.modal(rep)
     frequency.spectra(rep)
+    engineer.outputs(rep)
     index = Path(out) / "index.html"
     with atomic_path(index) as tmp:
         tmp.write_text(rep.page(scenario_path))

@@ -87,8 +87,11 @@ def base_run(rep: Report) -> None:
         "<a href='#readings'>readings</a>) the couplers are nearly undamped, and they are "
         "soft for the traction the study asks: under the pull that accelerates the "
         f"train its gears stretch up to {1e3 * max(now['max_gear_deflection_m']):.0f} mm "
-        f"beyond their slack, where a real friction gear closes solid at about "
-        f"{travel:.0f} mm"
+        f"beyond their slack (per gear: the coupling's deflection beyond the slack over "
+        f"its {rep.sc.coupler(0).gears} gear{'s' if rep.sc.coupler(0).gears > 1 else ''} "
+        "in series, as the modal analysis takes the coupling; "
+        "<a href='#gear-travel'>gear travel</a>), where a real friction gear closes solid "
+        f"at about {travel:.0f} mm"
         + (f" (couplers {numbers_text(beyond)} go beyond it)" if beyond else "")
         + ", and the slack run-ins at the start and at the deceleration shake the wagons "
         f"at up to {now['max_wagon_acceleration_m_s2']:.1f} m/s² (vehicle "
