@@ -13,7 +13,8 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --disable-pip-version-check --progress-bar off -e ".[test]"
 	touch $(STAMP)
 
-## run: reproduce the whole study as one report in report/ (about 70 s; 2.5 min the first time)
+## run: reproduce the whole study as one report in report/ (about 3.5 min on 2 cores the
+## first time, 1.5-2 min once the kernels are cached)
 run: $(STAMP)
 	$(BIN)/ltdsim study scenarios/paper.toml --output report
 
