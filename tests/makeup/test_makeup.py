@@ -278,6 +278,53 @@ def test_a_study_resumes_after_a_stop_and_dask_gives_the_local_results(tmp_path)
     pd.testing.assert_frame_equal(_table(p, tmp_path / "dask"), local)
 
 
+def test_a_killed_study_resumes_without_rerunning_finished_runs(tmp_path):
+    """SIGKILL `ltdsim makeup --workers 2` once its first runs are written: the same
+    study resumes with only the runs not finished and ends with an undisturbed run's
+    results (every record the killed run wrote is whole: atomic writes)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    body = SMALL.replace("makeups = 8", "makeups = 40").replace(emergency(6.0),
+                                                              emergency(30.0))
+    path = write_study(tmp_path, body)
+    out = tmp_path / "killed"
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(root / "src"), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    proc = subprocess.Popen([sys.executable, "-m", "ltdsim.cli.app", "makeup", str(path),
+                             "-o", str(out), "--workers", "2"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 300  # (a cold kernel compile on a busy machine)
+        while time.monotonic() < deadline and proc.poll() is None:
+            if any((out / "cases").glob("*.json")):
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, "the study ended before it could be killed: " + \
+            proc.stderr.read().decode()[-2000:]
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stderr.close()
+    time.sleep(1.0)  # (forked workers see their parent gone and stop)
+    finished = {f.stem for f in (out / "cases").glob("*.json")}
+    p = plan(path)
+    assert 0 < len(finished) < len(p.sweep.cases)
+    ran = []
+    run_plan(p, out, workers=2, progress=lambda d, n, c: ran.append(c) if c else None)
+    assert set(ran) == {c.id for c in p.sweep.cases} - finished
+    run_plan(p, tmp_path / "undisturbed", workers=2)
+    pd.testing.assert_frame_equal(_table(p, out), _table(p, tmp_path / "undisturbed"))
+
+
 # ------------------------------------------------------------------ physics
 def test_empties_at_the_front_of_loads_carry_more_compression_in_an_emergency(tmp_path):
     """20 wagons behind two locomotives, an emergency from 18 m/s: with the first four
