@@ -7,6 +7,8 @@ Names here are the commands' vocabulary; nothing here is a command.
 
 from __future__ import annotations
 
+import contextlib
+
 import os
 import tomllib
 from pathlib import Path
@@ -144,6 +146,24 @@ def fail(exc: LtdsimError) -> None:
     err_console.print(f"[bold red]error ({kind}):[/] {escape(str(exc))}", highlight=False,
                       soft_wrap=True)
     raise typer.Exit(2 if isinstance(exc, ScenarioError) else 3)
+
+
+@contextlib.contextmanager
+def executor_errors(scheduler: str | None, kept: str):
+    """Around a sweep executor's run: a Dask scheduler that does not take the work is one
+    line naming ``--scheduler``; an interrupt keeps the finished ``kept`` ("cases",
+    "runs") and says how to resume (exit 130)."""
+    try:
+        yield
+    except (OSError, TimeoutError) as exc:
+        if not scheduler:
+            raise
+        fail(LtdsimError(f"--scheduler: the Dask scheduler at {scheduler} did not "
+                         f"take the work: {exc}"))
+    except KeyboardInterrupt:
+        err_console.print(f"[yellow]interrupted: finished {kept} are kept; run the same "
+                          "command again to resume[/]")
+        raise typer.Exit(130) from None
 
 
 def say(text: str) -> None:

@@ -13,11 +13,11 @@ from typing import Annotated, Optional
 import typer
 from rich.markup import escape
 
-from ltdsim.errors import LtdsimError, ScenarioError
+from ltdsim.errors import ScenarioError
 from ltdsim.progress import Display
 from ltdsim.cli.common import (
     MAX_TIME_ANYWAY, case_counter, check_folder, check_number, check_scheduler,
-    check_workers, err_console, fail, say,
+    check_workers, err_console, executor_errors, fail, say,
 )
 
 
@@ -88,20 +88,10 @@ def makeup(
         return
     with Display(err_console) as show:
         update = show.bar("make-up runs", len(p.sweep.cases), "runs")
-        try:
+        with executor_errors(scheduler, "runs"):
             run_plan(p, output, scheduler=scheduler, workers=workers,
                      retry_failed=retry_failed, progress=lambda d, n, c: update(d),
                      on_compile=show.compiling, notice=show.note)
-        except (OSError, TimeoutError) as exc:
-            if not scheduler:
-                raise
-            fail(LtdsimError(f"--scheduler: the Dask scheduler at {scheduler} did not "
-                             f"take the work: {exc}"))
-            return
-        except KeyboardInterrupt:
-            err_console.print("[yellow]interrupted: finished runs are kept; run the same "
-                              "command again to resume[/]")
-            raise typer.Exit(130) from None
     index = write_report(p, output)
     record_outputs(output, written_files(output))
     _summary(output)

@@ -11,12 +11,12 @@ from typing import Annotated, Optional
 import typer
 from rich.markup import escape
 
-from ltdsim.errors import LtdsimError, ScenarioError
+from ltdsim.errors import ScenarioError
 from ltdsim.progress import Display
 from ltdsim.cli.analyse import PHASES_FILES
 from ltdsim.cli.common import (
     MAX_TIME_ANYWAY, case_counter, check_folder, check_number, check_scheduler,
-    check_workers, console, err_console, fail, parse_set, plain_table, say, simulate_shown,
+    check_workers, console, err_console, executor_errors, fail, parse_set, plain_table, say, simulate_shown,
     write_csv,
 )
 from ltdsim.results.outputs import check_outputs, record_outputs
@@ -117,21 +117,11 @@ def sweep(
         err_console.print(escape(say_err), highlight=False, soft_wrap=True)
     with Display(err_console) as show:
         update = show.bar("sweep", len(spec.cases), "cases")
-        try:
+        with executor_errors(scheduler, "cases"):
             summary = sw.run_sweep(spec, output, scheduler=scheduler, workers=workers,
                                    keep_results=keep_results, retry_failed=retry_failed,
                                    progress=lambda d, n, c: update(d),
                                    on_compile=show.compiling, notice=show.note)
-        except (OSError, TimeoutError) as exc:
-            if not scheduler:
-                raise
-            fail(LtdsimError(f"--scheduler: the Dask scheduler at {scheduler} did not "
-                              f"take the work: {exc}"))
-            return
-        except KeyboardInterrupt:
-            err_console.print("[yellow]interrupted: finished cases are kept; run the same "
-                              "command again to resume[/]")
-            raise typer.Exit(130) from None
     write_csv(summary, output / "summary.csv", index=True)
     written = [output / "summary.csv"]
     norms = sw.phase_norm_table(output, spec)
