@@ -34,6 +34,7 @@ from typing import Callable
 import numpy as np
 from numba import njit
 
+from ltdsim.engine.features import when
 from ltdsim.engine.layout import append_table, layout
 from ltdsim.physics.gears.couplers import (
     gear_deflection,
@@ -208,11 +209,14 @@ def _cushion(j, d, dd, slack, y, zo, dy, dzo, cpl):
 
 
 @njit(cache=True, inline="always")
-def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
+def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab, kinds):
     """Force of coupler ``j`` (N, + tension) at deflection ``d`` (m) and rate ``dd``
     (m/s), by its model code ``model``. A gear with internal states reads them at
     ``y[z0 + offset]`` and writes their rates to ``dy[dz0 + offset]`` (``offset`` its
-    ``P_ZOFF`` column). One branch per model of :data:`MODELS`.
+    ``P_ZOFF`` column). One branch per model of :data:`MODELS`; the hysteretic gears'
+    and the cushioning units' branches are compiled only when ``kinds``
+    (:class:`~ltdsim.engine.features.CouplerKinds`) says the train has them
+    (otherwise they give 0 N, and no coupler takes them).
 
     A coupling of ``n`` gears in series (``P_INVG = 1 / n``): every gear carries the
     coupling's force, and alike gears from alike states share its deflection beyond the
@@ -233,8 +237,10 @@ def coupler_force(j, model, d, dd, y, z0, dy, dz0, cpl, ctab):
                             cpl[j, P_TRAVEL], cpl[j, P_KSOLID])
     zo = int(cpl[j, P_ZOFF])
     if model == M_CUSHION:
-        return _cushion(j, d, dd, slack, y, z0 + zo, dy, dz0 + zo, cpl)
-    return _gear(j, model, d, dd, slack, y, z0 + zo, dy, dz0 + zo, cpl, ctab)
+        return when(kinds.cushion, _cushion, 0.0, j, d, dd, slack, y, z0 + zo, dy, dz0 + zo,
+                    cpl)
+    return when(kinds.hysteretic, _gear, 0.0, j, model, d, dd, slack, y, z0 + zo, dy,
+                dz0 + zo, cpl, ctab)
 
 
 # ------------------------------------------------------------------ registry

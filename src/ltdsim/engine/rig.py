@@ -25,6 +25,7 @@ from ltdsim.engine.couplers import (
     lower_coupler,
     released_force,
 )
+from ltdsim.engine.features import ALL_KINDS
 from ltdsim.engine.integrators import get_tableau
 from ltdsim.engine.kernel import CouplerArrays, FixedStep, _advance, _interp, _stages
 
@@ -84,7 +85,8 @@ def _rig_rhs(t, y, dy, p):
     else:
         d = y[Y_D]
         dd = y[Y_V]
-    f = coupler_force(j, cp.model[j], d, dd, y, Y_GEAR, dy, Y_GEAR, cp.par, rig.tables)
+    f = coupler_force(j, cp.model[j], d, dd, y, Y_GEAR, dy, Y_GEAR, cp.par, rig.tables,
+                      cp.kinds)
     if rig.mode == RIG_DEFLECTION:
         dy[Y_D] = 0.0
         dy[Y_V] = 0.0
@@ -148,7 +150,7 @@ def rig_args(model, cpl, ctab, mode, t_tab, a_tab, b_tab, mass, t_end, dt, metho
     y = np.zeros(ny)
     y[Y_GEAR] = f0
     rig = Rig(couplers=CouplerArrays(model=np.array([model], dtype=np.int64), par=cpl,
-                                uniform=int(model)),
+                                uniform=int(model), kinds=ALL_KINDS),
               tables=ctab, mode=int(mode), mass=float(mass),
               t=np.ascontiguousarray(t_tab, dtype=float),
               a=np.ascontiguousarray(a_tab, dtype=float),

@@ -49,7 +49,13 @@ Compiling. Small helpers are inlined by numba into their callers
 records, the controller, the brake commands, the stage routine) are compiled once each
 and inlined by LLVM (``forceinline=True``), which keeps the first compile short; the
 induction drive's axle (:func:`~ltdsim.engine.kernel.traction._drive_axle`) is called,
-not inlined. No argument of these functions may be a constant at a call site: numba
+not inlined. The subsystems a scenario may leave out (the fluid brake, the induction
+drives, the energy accounting, the hysteretic gears and the cushioning units) are called
+through :func:`ltdsim.engine.features.when`, whose flags are types in the
+:class:`Train` and :class:`CouplerArrays`: a kernel is compiled for the subsystems its
+scenario has, and each set of them is its own entry in the cache (the study's case
+compiles in about half the time of a kernel with every subsystem). No argument of these
+functions may be a constant at a call site: numba
 compiles a function once per set of argument types, and a constant such as ``0`` is a
 type of its own. The measurements behind these choices and behind the kernels' loop
 forms are in docs/performance.md.

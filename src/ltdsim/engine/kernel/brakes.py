@@ -20,6 +20,7 @@ from ltdsim.engine.kernel.structs import (
 from ltdsim.engine.kernel.rk import (
     MIN_STEP, max_scaled_error, pair_solution, step_accepted, step_rejected,
 )
+from ltdsim.engine.features import when
 from ltdsim.engine.kernel.tables import _interp_at
 from ltdsim.engine.layout import (
     A_AREA, A_ATM, A_COND, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_THERMAL,
@@ -71,7 +72,7 @@ def _brakes(t, y, events, n_events, tr, dr, w, dy):
     the rest (:func:`_fluid_brakes`, the fixed-step kernel :func:`run`). Nothing when
     the train has no air brakes."""
     if dr.par[D_BMODEL] == BRAKE_FLUID:
-        _fluid_brakes(t, y, events, n_events, tr, dr, w, dy)
+        when(tr.features.fluid, _fluid_brakes, None, t, y, events, n_events, tr, dr, w, dy)
     elif dr.par[D_BFULLSUM] > 0.0:
         _lumped_brakes(t, y, events, n_events, tr, dr, w, dy)
 
@@ -83,7 +84,7 @@ def _brakes_split(t, y, events, n_events, tr, dr, w, dy):
     which that kernel advances on their own steps (:func:`_fluid_forces`; ``y`` then
     holds the mechanical states only). Nothing when the train has no air brakes."""
     if dr.par[D_BMODEL] == BRAKE_FLUID:
-        _fluid_forces(t, y, tr, dr, w)
+        when(tr.features.fluid, _fluid_forces, None, t, y, tr, dr, w)
     elif dr.par[D_BFULLSUM] > 0.0:
         _lumped_brakes(t, y, events, n_events, tr, dr, w, dy)
 

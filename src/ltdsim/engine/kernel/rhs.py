@@ -20,6 +20,7 @@ from numba import njit
 from ltdsim.engine.couplers import M_SIMPLIFIED, P_D0, coupler_force
 from ltdsim.engine.kernel.brakes import _brakes, _brakes_split
 from ltdsim.engine.kernel.energy import _energy_rates
+from ltdsim.engine.features import when
 from ltdsim.engine.kernel.tables import _segment
 from ltdsim.engine.kernel.traction import _induction, _traction
 from ltdsim.engine.layout import T_G, V_CONS, V_DA, V_DB, V_DC, V_DIV0, V_P0, V_SHARE, V_WMASS
@@ -64,12 +65,12 @@ def _resistance(y, tr, w):
 
 
 @njit(cache=True, inline="always")
-def _coupler(j, model, y, n, cpl, ctab, w, dy):
+def _coupler(j, model, y, n, cpl, ctab, kinds, w, dy):
     """Force (N, + tension) and deflection (m, + draft) of coupler ``j`` of model code
     ``model`` into ``w.force[j]`` and ``w.defl[j]`` (see :func:`_couplers`)."""
     d = y[j] - y[j + 1] + cpl[j, P_D0]
     dd = y[n + j] - y[n + j + 1]
-    w.force[j] = coupler_force(j, model, d, dd, y, 2 * n, dy, 2 * n, cpl, ctab)
+    w.force[j] = coupler_force(j, model, d, dd, y, 2 * n, dy, 2 * n, cpl, ctab, kinds)
     w.defl[j] = d
 
 
@@ -86,12 +87,13 @@ def _couplers(y, tr, cp, w, dy):
     ctab = tr.tables
     n = tr.veh.shape[0]
     u = cp.uniform
+    kinds = cp.kinds
     if u == M_SIMPLIFIED:
         for j in range(n - 1):
-            _coupler(j, u, y, n, cpl, ctab, w, dy)
+            _coupler(j, u, y, n, cpl, ctab, kinds, w, dy)
     else:
         for j in range(n - 1):
-            _coupler(j, cp.model[j], y, n, cpl, ctab, w, dy)
+            _coupler(j, cp.model[j], y, n, cpl, ctab, kinds, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
@@ -136,7 +138,7 @@ def rhs(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     rtot = _resistance(y, tr, w)
     _brakes(t, y, events, n_events, tr, dr, w, dy)
     _traction(t, y, a_dem, rtot, tr, dr, w, dy)
-    _induction(y, tr, w, dy)
+    when(tr.features.drive, _induction, None, y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
 
@@ -151,10 +153,10 @@ def rhs_split(t, y, a_dem, n_events, tr, cp, dr, events, w, dy):
     rtot = _resistance(y, tr, w)
     _brakes_split(t, y, events, n_events, tr, dr, w, dy)
     _traction(t, y, a_dem, rtot, tr, dr, w, dy)
-    _induction(y, tr, w, dy)
+    when(tr.features.drive, _induction, None, y, tr, w, dy)
     _couplers(y, tr, cp, w, dy)
     _force_balance(y, tr, w, dy)
-    _energy_rates(y, tr, w, dy)
+    when(tr.features.energy, _energy_rates, None, y, tr, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)

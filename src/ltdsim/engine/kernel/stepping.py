@@ -19,6 +19,7 @@ from ltdsim.engine.kernel.driver import _brake_commands, _controller, _sample_du
 from ltdsim.engine.kernel.energy import (
     _account_first, _account_traction, _energy_totals, _powers,
 )
+from ltdsim.engine.features import when
 from ltdsim.engine.kernel.recording import _implausible, _record, _track_peaks
 from ltdsim.engine.kernel.rhs import _train_rhs, _train_rhs_split, rhs, rhs_split
 from ltdsim.engine.kernel.rk import (
@@ -99,16 +100,16 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
             # (traction every step; the other powers every energy_every steps, which
             # divides record_every, so that each record is a sample)
             if k == 0:
-                _account_first(y, tr, w)
+                when(tr.features.energy, _account_first, None, y, tr, w)
             else:
-                _account_traction(dt, y, tr, w)
+                when(tr.features.energy, _account_traction, None, dt, y, tr, w)
                 if c_rec == 0:
-                    _powers(y, tr, w, PW_END, True)
+                    when(tr.features.energy, _powers, None, y, tr, w, PW_END, True)
                 elif c_sam == 0:
-                    _powers(y, tr, w, -1, True)
+                    when(tr.features.energy, _powers, None, y, tr, w, -1, True)
         if c_rec == 0:
             if energy:
-                _energy_totals(h_sam, w)
+                when(tr.features.energy, _energy_totals, None, h_sam, w)
             _record(k // record_every, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w,
                     out)
         _stages(_train_rhs, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, y, dt, A, C, ns, K,
@@ -130,11 +131,11 @@ def run(y, ctl, k_start, k_stop, fs, tr, cp, dr, w, out):
         _track_peaks(force, peaks, n - 1, t)
         if energy:
             if k_stop == 0:
-                _account_first(y, tr, w)
+                when(tr.features.energy, _account_first, None, y, tr, w)
             else:
-                _account_traction(dt, y, tr, w)
-                _powers(y, tr, w, PW_END, True)
-            _energy_totals(h_sam, w)
+                when(tr.features.energy, _account_traction, None, dt, y, tr, w)
+                when(tr.features.energy, _powers, None, y, tr, w, PW_END, True)
+            when(tr.features.energy, _energy_totals, None, h_sam, w)
         _record(k_stop // record_every, t, y, K, st["a_dem"], st["level"], speed_mode, tr,
                 dr, w, out)
     return OK, k_stop
@@ -217,7 +218,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     fresh = True  # K[0:ny] must be (re)computed at (t, y)
     cut = False  # the pneumatic step must end at t (a command, or the start)
     if split and not air_st["started"]:
-        _air_start(t, y, tr, w)
+        when(tr.features.fluid, _air_start, None, t, y, tr, w)
         cut = True
     while True:
         # ---- driver: controller sample, brake commands (at the start of the step)
@@ -237,7 +238,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         a_dem = st["a_dem"]
         n_ev = st["n_events"]
         if cut:
-            _air_cut(t, ctl.events, n_ev, tr, w)
+            when(tr.features.fluid, _air_cut, None, t, ctl.events, n_ev, tr, w)
             cut = False
         if fresh:
             rhs_split(t, ym, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
@@ -247,7 +248,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         if r < n_rec and abs(t - r * out_dt) <= eps:
             if r < r_stop or r == n_rec - 1:
                 if split:
-                    _air_interpolate(t, tr, w, y)
+                    when(tr.features.fluid, _air_interpolate, None, t, tr, w, y)
                 if _implausible(y, tr, cp.par) >= 0:
                     return ABSURD, t
                 _record(r, t, y, K, a_dem, st["level"], speed_mode, tr, dr, w, out)
@@ -272,7 +273,8 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
                 k = st["next_scheduled"]
                 if k < m_sched and ctab[o_sched + k] > t + eps:
                     t_cap = min(t_cap, ctab[o_sched + k])
-                if not _air_step(t_cap, ctl.events, n_ev, tr, w, ad):
+                if not when(tr.features.fluid, _air_step, True, t_cap, ctl.events, n_ev, tr,
+                            w, ad):
                     sp["h"] = h
                     sp["t"] = t
                     return NONFINITE, t

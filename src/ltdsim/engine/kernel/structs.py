@@ -20,6 +20,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ltdsim.engine.couplers import M_CUSHION, MODELS
+from ltdsim.engine.features import CouplerKinds, Features, flag
 from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, V_MASS, V_SHARE
 from ltdsim.physics.control import PID_STATE
 from ltdsim.physics.drive.foc import N_OUT
@@ -133,6 +135,7 @@ class Train(NamedTuple):
     tables: np.ndarray  # flat store of tables (gear curves, friction, notches, schedules)
     air: AirBrake  # the fluid air brake (empty for the lumped brake)
     drive: Drive  # the induction drives (empty rows without any)
+    features: Features  # the subsystems compiled in (ltdsim.engine.features)
 
 
 class CouplerArrays(NamedTuple):
@@ -141,6 +144,7 @@ class CouplerArrays(NamedTuple):
     model: np.ndarray  # (n - 1,) int64 model codes (ltdsim.engine.couplers.MODEL_NAMES)
     par: np.ndarray  # (n - 1, N_CCOL) parameters (columns: ltdsim.engine.couplers)
     uniform: int  # the model code every coupler has, -1 for a mix (see uniform_model)
+    kinds: CouplerKinds  # the gear models compiled in (ltdsim.engine.features)
 
 
 class DriverArrays(NamedTuple):
@@ -266,12 +270,29 @@ def make_train(low) -> Train:
                  inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
                  track_pos=low.track_pos, track_grade=low.track_grade,
                  track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab, air=air,
-                 drive=drive)
+                 drive=drive, features=features_of(low))
+
+
+def features_of(low) -> Features:
+    """The optional subsystems a :class:`~ltdsim.engine.lowering.Lowered` scenario runs:
+    the fluid brake, an induction drive, the energy accounting."""
+    return Features(fluid=flag(low.fluid), drive=flag(low.drive_z.shape[0] > 0),
+                    energy=flag(bool(low.energy)))
+
+
+def coupler_kinds(model: np.ndarray) -> CouplerKinds:
+    """The gear models among the couplers' model codes ``model`` (int64) whose code the
+    kernel compiles only when some coupler has them."""
+    codes = set(int(m) for m in model)
+    hysteretic = {m.code for m in MODELS if m.hysteretic}
+    return CouplerKinds(hysteretic=flag(bool(codes & hysteretic)),
+                        cushion=flag(M_CUSHION in codes))
 
 
 def make_couplers(low) -> CouplerArrays:
     """:class:`CouplerArrays` of a :class:`~ltdsim.engine.lowering.Lowered` scenario."""
-    return CouplerArrays(model=low.cpl_model, par=low.cpl, uniform=uniform_model(low.cpl_model))
+    return CouplerArrays(model=low.cpl_model, par=low.cpl, uniform=uniform_model(low.cpl_model),
+                         kinds=coupler_kinds(low.cpl_model))
 
 
 def uniform_model(model: np.ndarray) -> int:

@@ -1,0 +1,99 @@
+"""Which subsystems a kernel is compiled with: flags that are types, not values.
+
+numba compiles a kernel once per set of argument types, so a flag carried in a type
+picks the code at compile time. :class:`On` and :class:`Off` are two empty named
+tuples, distinct types with no data; :class:`Features` (in the
+:class:`~ltdsim.engine.kernel.structs.Train`) and :class:`CouplerKinds` (in the
+:class:`~ltdsim.engine.kernel.structs.CouplerArrays`) hold one per subsystem that a
+scenario may leave out. A subsystem is called through :func:`when`::
+
+    when(tr.features.fluid, _fluid_brakes, None, t, y, ...)
+
+which compiles to the call ``_fluid_brakes(t, y, ...)`` when the flag is :class:`On`
+and to the constant ``None`` (its third argument) when it is :class:`Off`, without
+typing or compiling ``_fluid_brakes`` at all. A scenario with the lumped brake, the
+traction curve and simplified couplers thus compiles neither the fluid brake, nor the
+induction drive, nor the hysteretic gears; each combination of flags is its own
+entry in numba's on-disk cache, compiled the first time a scenario needs it.
+
+A flag only removes code that the scenario's data would never run: every call behind
+:func:`when` also sits behind the run-time test it had before (an empty array, a model
+code), so a kernel with every flag :class:`On` gives the same numbers as one with only
+the flags the scenario needs, bit for bit (``benchmarks/check_bit_identical.py``
+against the code before the flags, which compiled everything; measured in
+docs/performance.md, "The first run").
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from numba import types
+from numba.extending import overload
+
+
+class On(NamedTuple):
+    """The subsystem is compiled into the kernel."""
+
+
+class Off(NamedTuple):
+    """The subsystem is left out of the kernel: its calls compile to a constant."""
+
+
+ON = On()
+OFF = Off()
+
+
+def flag(present: bool) -> On | Off:
+    """:data:`ON` when ``present``, else :data:`OFF`."""
+    return ON if present else OFF
+
+
+class Features(NamedTuple):
+    """The train's optional subsystems (each :data:`ON` or :data:`OFF`)."""
+
+    fluid: On | Off  # the fluid-dynamic air brake (brake.model = "fluid")
+    drive: On | Off  # an induction drive on some consist (traction.drive = "induction")
+    energy: On | Off  # the energy accounting (solver.energy)
+
+
+class CouplerKinds(NamedTuple):
+    """The coupler models whose code is large enough to leave out when no coupler of
+    the train has them (each :data:`ON` or :data:`OFF`); the linear and simplified
+    couplers are always compiled."""
+
+    hysteretic: On | Off  # friction-wedge, table and polymer gears (couplers._gear)
+    cushion: On | Off  # hydraulic cushioning units (couplers._cushion)
+
+
+#: every subsystem compiled (the gear rig, and the check that the flags change nothing)
+ALL_FEATURES = Features(fluid=ON, drive=ON, energy=ON)
+ALL_KINDS = CouplerKinds(hysteretic=ON, cushion=ON)
+
+
+def when(on, fn, off, *args):
+    """``fn(*args)`` in a compiled kernel when ``on`` is :data:`ON`, the constant ``off``
+    when it is :data:`OFF` (``fn`` then not compiled). Only callable from compiled
+    code."""
+    raise TypeError("ltdsim.engine.features.when is only callable from compiled code")
+
+
+def _is_off(ty) -> bool:
+    return isinstance(ty, types.BaseNamedTuple) and ty.instance_class is Off
+
+
+def _is_on(ty) -> bool:
+    return isinstance(ty, types.BaseNamedTuple) and ty.instance_class is On
+
+
+@overload(when)
+def _when(on, fn, off, *args):
+    if _is_off(on):
+        def left_out(on, fn, off, *args):
+            return off
+        return left_out
+    if _is_on(on):
+        def compiled_in(on, fn, off, *args):
+            return fn(*args)
+        return compiled_in
+    return None  # (not a flag: numba reports the call as untyped)
