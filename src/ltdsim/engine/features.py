@@ -64,11 +64,13 @@ class CouplerKinds(NamedTuple):
 
     hysteretic: On | Off  # friction-wedge, table and polymer gears (couplers._gear)
     cushion: On | Off  # hydraulic cushioning units (couplers._cushion)
+    dispatch: On | Off  # some coupler is not the simplified one: the loop that picks each
+    # coupler's law by its model code (kernel.rhs._dispatched_couplers)
 
 
 #: every subsystem compiled (the gear rig, and the check that the flags change nothing)
 ALL_FEATURES = Features(fluid=ON, drive=ON, energy=ON)
-ALL_KINDS = CouplerKinds(hysteretic=ON, cushion=ON)
+ALL_KINDS = CouplerKinds(hysteretic=ON, cushion=ON, dispatch=ON)
 
 
 def when(on, fn, off, *args):
@@ -86,7 +88,9 @@ def _is_on(ty) -> bool:
     return isinstance(ty, types.BaseNamedTuple) and ty.instance_class is On
 
 
-@overload(when)
+# (forceinline: LLVM inlines the call into its caller, as the kernels' large functions
+# are; a call left standing would pass ``fn`` as an address, which numba cannot cache)
+@overload(when, jit_options={"forceinline": True})
 def _when(on, fn, off, *args):
     if _is_off(on):
         def left_out(on, fn, off, *args):

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ltdsim.engine.features import when
 from ltdsim.engine.kernel.structs import (
     PK_MAX, PK_MIN, PK_TMAX, PK_TMIN, SG_ADEM, SG_ADHESION, SG_BRAKE, SG_DEMAND,
     SG_TRACTION, SG_VREF,
@@ -41,6 +42,31 @@ def _track_peaks(force, peaks, nc, t):
 
 
 @njit(cache=True, _nrt=False, forceinline=True)
+def _record_air(r, y, tr, out):
+    """The fluid brake's part of record ``r`` (:func:`_record`): the pipe pressure at
+    each vehicle, its auxiliary reservoir and brake cylinder (Pa gauge), the cylinder's
+    fill (its pressure over the full-service pressure) and the air exhausted (kg)."""
+    veh = tr.veh
+    n = veh.shape[0]
+    atm = tr.air.gas[A_ATM]
+    zp = tr.air.index[I_PIPE]
+    for i in range(out.bp.shape[1]):
+        out.bp[r, i] = y[zp + int(veh[i, V_BCELL])] - atm
+    for i in range(n):
+        zb = int(veh[i, V_BZ])
+        aux = y[zb + CV_AUX] - atm if zb >= 0 else np.nan
+        cyl = y[zb + CV_CYL] - atm if zb >= 0 else np.nan
+        if out.ar.shape[1] > 0:
+            out.ar[r, i] = aux
+        if out.bc.shape[1] > 0:
+            out.bc[r, i] = cyl
+        if out.p.shape[1] > 0:
+            out.p[r, i] = cyl / veh[i, V_BPFS] if zb >= 0 else 0.0
+    if out.ax.shape[1] > 0:
+        out.ax[r, 0] = y[tr.air.index[I_EXH]]
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
 def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
     """Write record ``r`` at time ``t`` (s) of state ``y`` to ``out``: positions,
     speeds, the accelerations ``dy[n:2n]`` (stage 1 at ``(t, y)``), coupler
@@ -70,22 +96,7 @@ def _record(r, t, y, dy, a_dem, level, speed_mode, tr, dr, w, out):
             zb = int(veh[i, V_BZ])
             out.p[r, i] = y[zb] if zb >= 0 else 0.0
     else:
-        atm = tr.air.gas[A_ATM]
-        zp = tr.air.index[I_PIPE]
-        for i in range(out.bp.shape[1]):
-            out.bp[r, i] = y[zp + int(veh[i, V_BCELL])] - atm
-        for i in range(n):
-            zb = int(veh[i, V_BZ])
-            aux = y[zb + CV_AUX] - atm if zb >= 0 else np.nan
-            cyl = y[zb + CV_CYL] - atm if zb >= 0 else np.nan
-            if out.ar.shape[1] > 0:
-                out.ar[r, i] = aux
-            if out.bc.shape[1] > 0:
-                out.bc[r, i] = cyl
-            if out.p.shape[1] > 0:
-                out.p[r, i] = cyl / veh[i, V_BPFS] if zb >= 0 else 0.0
-        if out.ax.shape[1] > 0:
-            out.ax[r, 0] = y[tr.air.index[I_EXH]]
+        when(tr.features.fluid, _record_air, None, r, y, tr, out)
     if out.c.shape[1] > 0:
         for c in range(cons.shape[0]):
             out.c[r, c] = w.fcons[c]

@@ -82,18 +82,30 @@ def _couplers(y, tr, cp, w, dy):
 
     A train whose couplers all share the simplified model (``cp.uniform``) runs a loop
     of its own, in which the compiler knows the model and drops the dispatch; the
-    arithmetic is the same."""
-    cpl = cp.par
-    ctab = tr.tables
-    n = tr.veh.shape[0]
+    arithmetic is the same. The loop with the dispatch is compiled only for a train
+    that needs it (``cp.kinds.dispatch``)."""
     u = cp.uniform
-    kinds = cp.kinds
     if u == M_SIMPLIFIED:
+        cpl = cp.par
+        ctab = tr.tables
+        n = tr.veh.shape[0]
+        kinds = cp.kinds
         for j in range(n - 1):
             _coupler(j, u, y, n, cpl, ctab, kinds, w, dy)
     else:
-        for j in range(n - 1):
-            _coupler(j, cp.model[j], y, n, cpl, ctab, kinds, w, dy)
+        when(cp.kinds.dispatch, _dispatched_couplers, None, y, tr, cp, w, dy)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _dispatched_couplers(y, tr, cp, w, dy):
+    """:func:`_couplers` of a train with couplers of several models (or one model but
+    the simplified): each coupler's law chosen by its model code."""
+    cpl = cp.par
+    ctab = tr.tables
+    n = tr.veh.shape[0]
+    kinds = cp.kinds
+    for j in range(n - 1):
+        _coupler(j, cp.model[j], y, n, cpl, ctab, kinds, w, dy)
 
 
 @njit(cache=True, _nrt=False, forceinline=True)

@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ltdsim.engine.couplers import M_CUSHION, MODELS
+from ltdsim.engine.couplers import M_CUSHION, M_SIMPLIFIED, MODELS
 from ltdsim.engine.features import CouplerKinds, Features, flag
 from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, V_MASS, V_SHARE
 from ltdsim.physics.control import PID_STATE
@@ -286,7 +286,8 @@ def coupler_kinds(model: np.ndarray) -> CouplerKinds:
     codes = set(int(m) for m in model)
     hysteretic = {m.code for m in MODELS if m.hysteretic}
     return CouplerKinds(hysteretic=flag(bool(codes & hysteretic)),
-                        cushion=flag(M_CUSHION in codes))
+                        cushion=flag(M_CUSHION in codes),
+                        dispatch=flag(bool(codes - {M_SIMPLIFIED})))
 
 
 def make_couplers(low) -> CouplerArrays:
