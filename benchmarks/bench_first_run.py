@@ -116,6 +116,9 @@ def _fresh_machine(work: Path) -> dict:
     clone = _clone("HEAD", work / "clone-fresh")
     env = {k: v for k, v in os.environ.items()
            if k not in ("PYTHONPATH", "NUMBA_CACHE_DIR", "VIRTUAL_ENV", "COLUMNS")}
+    # an empty numba cache, as on a new machine (pip's download cache stays: the wheels
+    # come from it where it holds them, as from a package index nearby)
+    env["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="cache-fresh-", dir=work)
     out = {}
     for target in ("run", "test"):
         out[target] = _timed(["make", "--no-print-directory", target], clone, env,
