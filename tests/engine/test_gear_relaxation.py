@@ -16,6 +16,7 @@ from numpy.testing import assert_allclose
 from scipy.integrate import solve_ivp
 
 from ltdsim.engine.couplers import P_RATE, coupler_force, lower_coupler
+from ltdsim.engine.features import ALL_KINDS
 from ltdsim.analysis.gears import drive_deflection, impact
 from ltdsim.engine.kernel import _relax_in_slack
 from ltdsim.scenario import CouplerParams
@@ -103,7 +104,8 @@ def test_a_gear_relaxes_in_its_slack_as_its_own_law_integrated_finely(f1, p, h, 
 
     def law(t, z):
         dz = np.zeros(nz)
-        force = coupler_force(0, one.code, 0.25 * c.slack, 0.1, z, 0, dz, 0, cpl, ctab)
+        force = coupler_force(0, one.code, 0.25 * c.slack, 0.1, z, 0, dz, 0, cpl, ctab,
+                              ALL_KINDS)
         assert force == 0.0  # (inside the slack)
         return dz
 

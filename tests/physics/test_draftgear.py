@@ -345,6 +345,7 @@ def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
         P_KSOLID, P_TRAVEL, WG_BACK, WG_C1, WG_C2, WG_C3, WG_G, WG_GAP, WG_H1, WG_H2, WG_H3, WG_KM,
         WG_KR, WG_S, WG_TA, WG_TB, WG_TG, WG_XM0, WG_XR0, coupler_force, lower_coupler,
     )
+    from ltdsim.engine.features import ALL_KINDS
     from ltdsim.physics.gears.couplers import solid_closure
     from ltdsim.physics.gears.draftgear import plates_carried, plates_out, wedge_curves
 
@@ -367,5 +368,5 @@ def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
     dy = np.zeros(2)
     sgn = 1.0 if draft else -1.0
     force = coupler_force(0, low.code, sgn * x, sgn * v, y, 0, dy, 0, r[None, :],
-                          np.asarray(tables + [0.0]))
+                          np.asarray(tables + [0.0]), ALL_KINDS)
     assert_allclose(sgn * force, max(min(max(f1, f_u), f_l), 0.0), rtol=1e-13, atol=1e-9)

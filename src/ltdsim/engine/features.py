@@ -72,12 +72,36 @@ class CouplerKinds(NamedTuple):
 ALL_FEATURES = Features(fluid=ON, drive=ON, energy=ON)
 ALL_KINDS = CouplerKinds(hysteretic=ON, cushion=ON, dispatch=ON)
 
+#: the sets of subsystems the kernels are compiled for, smallest first; a scenario runs
+#: on the first set that holds every subsystem it has (:func:`compiled_set`). Each set
+#: is a compile of its own, 17 s of CPU for the first (the study's case: lumped brake,
+#: traction curves, simplified couplers), 45-52 s for the last; a test suite, a sweep or
+#: a study that meets many scenarios compiles each set it meets once, so two sets keep
+#: that to two kernels per method (fixed step, bs23), where one per combination of
+#: subsystems would be up to 16 (docs/performance.md, "The first run").
+KERNEL_SETS: tuple[tuple[Features, CouplerKinds], ...] = (
+    (Features(fluid=OFF, drive=OFF, energy=OFF),
+     CouplerKinds(hysteretic=OFF, cushion=OFF, dispatch=OFF)),
+    (ALL_FEATURES, ALL_KINDS),
+)
+
+
+def compiled_set(features: Features, kinds: CouplerKinds) -> tuple[Features, CouplerKinds]:
+    """The smallest of :data:`KERNEL_SETS` that compiles every subsystem :data:`ON` in
+    ``features`` and ``kinds`` (what a scenario has)."""
+    need = (*features, *kinds)
+    for have_f, have_k in KERNEL_SETS:
+        have = (*have_f, *have_k)
+        if all(isinstance(h, On) or not isinstance(n, On) for n, h in zip(need, have)):
+            return have_f, have_k
+    raise AssertionError("KERNEL_SETS must end with the set of every subsystem")
+
 
 def when(on, fn, off, *args):
-    """``fn(*args)`` in a compiled kernel when ``on`` is :data:`ON`, the constant ``off``
-    when it is :data:`OFF` (``fn`` then not compiled). Only callable from compiled
-    code."""
-    raise TypeError("ltdsim.engine.features.when is only callable from compiled code")
+    """``fn(*args)`` when ``on`` is :data:`ON`, the constant ``off`` when it is
+    :data:`OFF`; in a compiled kernel ``fn`` is then not compiled at all (and as plain
+    Python, ``NUMBA_DISABLE_JIT=1``, not called)."""
+    return fn(*args) if isinstance(on, On) else off
 
 
 def _is_off(ty) -> bool:

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ltdsim.engine.couplers import M_CUSHION, M_SIMPLIFIED, MODELS
-from ltdsim.engine.features import CouplerKinds, Features, flag
+from ltdsim.engine.features import CouplerKinds, Features, compiled_set, flag
 from ltdsim.engine.layout import N_DRIVE_SIGNALS, N_ENERGY, V_MASS, V_SHARE
 from ltdsim.physics.control import PID_STATE
 from ltdsim.physics.drive.foc import N_OUT
@@ -270,12 +270,14 @@ def make_train(low) -> Train:
                  inv_m=1.0 / low.veh[:, V_MASS], cons=low.cons, trac=low.trac,
                  track_pos=low.track_pos, track_grade=low.track_grade,
                  track_curv=low.track_curv, curve_h=low.curve_h, tables=low.ctab, air=air,
-                 drive=drive, features=features_of(low))
+                 drive=drive, features=compiled_set(features_of(low),
+                                                    coupler_kinds(low.cpl_model))[0])
 
 
 def features_of(low) -> Features:
     """The optional subsystems a :class:`~ltdsim.engine.lowering.Lowered` scenario runs:
-    the fluid brake, an induction drive, the energy accounting."""
+    the fluid brake, an induction drive, the energy accounting (the kernel is compiled
+    for the smallest set that holds them, :func:`ltdsim.engine.features.compiled_set`)."""
     return Features(fluid=flag(low.fluid), drive=flag(low.drive_z.shape[0] > 0),
                     energy=flag(bool(low.energy)))
 
@@ -293,7 +295,7 @@ def coupler_kinds(model: np.ndarray) -> CouplerKinds:
 def make_couplers(low) -> CouplerArrays:
     """:class:`CouplerArrays` of a :class:`~ltdsim.engine.lowering.Lowered` scenario."""
     return CouplerArrays(model=low.cpl_model, par=low.cpl, uniform=uniform_model(low.cpl_model),
-                         kinds=coupler_kinds(low.cpl_model))
+                         kinds=compiled_set(features_of(low), coupler_kinds(low.cpl_model))[1])
 
 
 def uniform_model(model: np.ndarray) -> int:
