@@ -1,11 +1,14 @@
 """The adaptive kernel's treatment of hysteretic draft gears: the error of the force a gear
 exerts (rather than of its internal force, which may run ahead of the force by the
-gear's relaxation lag), and the exact relaxation of a gear's states over a step spent
-wholly in its slack, where they relax to constants and act on nothing.
+gear's relaxation lag), the exact relaxation of a gear's states over a step spent
+wholly in its slack, where they relax to constants and act on nothing, and the location
+of the first point along a step where a coupling meets or leaves its slack edge (any
+coupler model with slack; used with ``rk.EDGE_LOCATION``).
 """
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from ltdsim.engine.couplers import P_D0, P_F0, P_RATE, P_SLACK, WG_BACK, WG_GAP
@@ -85,3 +88,90 @@ def _relax_in_slack(j, q, qp, y, ynew, dyend, decay, cpl):
         ynew[qp] = p
         dyend[qp] = plate_rate(-cpl[j, WG_GAP], p, 0.0, cpl[j, WG_BACK], rate) \
             if p > 1e-12 else 0.0
+
+
+@njit(cache=True, inline="always")
+def _regime(d, half):
+    """The regime of a coupling at deflection ``d`` (m) with half its free play ``half``
+    (m): 0 in the slack (as :func:`_in_slack`), 1 in draft, -1 in buff."""
+    if d > half:
+        return 1
+    if d < -half:
+        return -1
+    return 0
+
+
+@njit(cache=True, inline="always")
+def _hermite(a, b, c, e, s):
+    """The cubic ``a + s (b + s (c + s e))`` at ``s`` (the step's fraction, -)."""
+    return a + s * (b + s * (c + s * e))
+
+
+@njit(cache=True)
+def _edge_crossing(j, y, ynew, n, h, v_min, cpl):
+    """The first point of a step of size ``h`` (s) from ``y`` to ``ynew`` at which
+    coupler ``j`` changes regime (:func:`_regime`: it meets or leaves a slack edge), as
+    a fraction of the step (-), or 2.0 when it stays in its regime throughout.
+
+    The deflection (m) along the step is the cubic Hermite interpolant of its values and
+    rates at the step's ends (positions are ``y[0:n]``, speeds ``y[n:2n]``), third
+    order like the pair's kept solution, so that a touch that begins and ends between
+    the pair's stages is seen too. The cubic is monotone between its turning points:
+    the first piece that ends in another regime holds the crossing, located there by
+    bisection to 1e-7 of the step (the fraction returned is the upper end of the
+    bracket: the cubic is in the new regime there). A crossing at a closing or opening
+    speed below ``v_min`` (m/s) does not count: a coupling that creeps to its edge
+    (one held at it by a force between none and the gear's preload, which touches and
+    leaves it again and again) meets it with an impulse below the speeds' tolerance."""
+    slack = cpl[j, P_SLACK]
+    if not slack > 0.0:
+        return 2.0
+    half = 0.5 * slack
+    d0 = cpl[j, P_D0]
+    da = y[j] - y[j + 1] + d0
+    db = ynew[j] - ynew[j + 1] + d0
+    va = h * (y[n + j] - y[n + j + 1])
+    vb = h * (ynew[n + j] - ynew[n + j + 1])
+    r0 = _regime(da, half)
+    c2 = 3.0 * (db - da) - 2.0 * va - vb
+    c3 = 2.0 * (da - db) + va + vb
+    # turning points: va + 2 c2 s + 3 c3 s^2 = 0 in (0, 1)
+    s1 = 2.0
+    s2 = 2.0
+    if c3 != 0.0:
+        disc = c2 * c2 - 3.0 * c3 * va
+        if disc > 0.0:
+            q = np.sqrt(disc)
+            u = (-c2 - q) / (3.0 * c3)
+            v = (-c2 + q) / (3.0 * c3)
+            s1 = min(u, v)
+            s2 = max(u, v)
+    elif c2 != 0.0:
+        s1 = -va / (2.0 * c2)
+    lo = 0.0
+    for k in range(3):
+        hi = s1 if k == 0 else (s2 if k == 1 else 1.0)
+        if not (hi > lo and hi < 1.0) and k < 2:
+            continue
+        pb = _hermite(da, va, c2, c3, hi)
+        if _regime(pb, half) != r0:
+            pa = _hermite(da, va, c2, c3, lo)
+            if r0 == 0:
+                level = half if pb > pa else -half
+            else:
+                level = r0 * half
+            # bisection on the monotone piece [lo, hi] for the cubic's crossing of level
+            up = pb > pa
+            a = lo
+            b = hi
+            for _ in range(24):
+                m = 0.5 * (a + b)
+                if (_hermite(da, va, c2, c3, m) > level) == up:
+                    b = m
+                else:
+                    a = m
+            if abs(va + b * (2.0 * c2 + 3.0 * c3 * b)) < v_min * h:
+                return 2.0
+            return b
+        lo = hi
+    return 2.0

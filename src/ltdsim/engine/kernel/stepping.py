@@ -23,10 +23,13 @@ from ltdsim.engine.features import when
 from ltdsim.engine.kernel.recording import _implausible, _record, _track_peaks
 from ltdsim.engine.kernel.rhs import _train_rhs, _train_rhs_split, rhs, rhs_split
 from ltdsim.engine.kernel.rk import (
-    MIN_STEP, _advance, _finite, _stages, max_scaled_error, pair_error, pair_solution,
-    scaled_error, step_accepted, step_rejected,
+    EDGE_LOCATION, EDGE_MIN_STEP, EDGE_SPEED, EDGE_TAIL, MIN_STEP, _advance, _finite,
+    _stages, max_scaled_error, pair_error, pair_solution, scaled_error, step_accepted,
+    step_rejected,
 )
-from ltdsim.engine.kernel.slack import _exerted_error, _relax_in_slack, _slack_throughout
+from ltdsim.engine.kernel.slack import (
+    _edge_crossing, _exerted_error, _relax_in_slack, _slack_throughout,
+)
 from ltdsim.engine.kernel.structs import ABSURD, EVENTS_FULL, NONFINITE, OK, PW_END
 from ltdsim.engine.layout import (
     D_BCTRL, D_BPLEN, D_BSLEN, D_BSOFF, D_MODE, D_TS, I_PIPE, MODE_SPEED,
@@ -154,7 +157,11 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     hysteretic gear's internal force by the error of the force it exerts
     (:func:`_exerted_error`); a gear that spends the whole step in its slack has its
     states relaxed exactly (:func:`_relax_in_slack`). Steps end
-    exactly on record times, controller samples and scheduled brake commands. Records
+    exactly on record times, controller samples and scheduled brake commands, and with
+    ``rk.EDGE_LOCATION`` just past the first point where a coupling meets or leaves its
+    slack edge at more than ``rk.EDGE_SPEED`` times the speeds' tolerance
+    (:func:`_edge_crossing`; a step that would run on past it by more than
+    ``rk.EDGE_TAIL`` of its length is taken again, cut, and counted as rejected). Records
     ``r_start`` (when it is 0) to ``r_stop - 1``, and ``n_rec - 1`` when ``r_stop``
     reaches ``n_rec``.
 
@@ -217,6 +224,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     eps = 1e-9 * out_dt
     fresh = True  # K[0:ny] must be (re)computed at (t, y)
     cut = False  # the pneumatic step must end at t (a command, or the start)
+    h_edge = np.inf  # the step cut to end just past a slack edge, s (inf: none)
     if split and not air_st["started"]:
         when(tr.features.fluid, _air_start, None, t, y, tr, w)
         cut = True
@@ -263,6 +271,9 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         if k < m_sched:
             t_next = min(t_next, ctab[o_sched + k])
         h_try = min(h, ad.h_max)
+        at_edge = h_edge < h_try
+        if at_edge:
+            h_try = h_edge
         if split:
             if (min(t + h_try, t_next) > air_st["t1"] and t >= air_st["t0"]
                     and t < t_last - eps):
@@ -283,6 +294,7 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         if t + h_try >= t_next - eps:
             h_try = t_next - t
             hit = True
+            at_edge = False
         # ---- one step of the embedded pair: its stages, the solution kept, the error
         _stages(_train_rhs_split, (a_dem, n_ev, tr, cp, dr, ctl.events, w), t, ym, h_try, A,
                 C, ns, K, w.ytmp)
@@ -293,6 +305,20 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
         finite = pair_solution(y, K, stage_at, h_try, B, 0, ny, ynew)
         t_new = t_next if hit else t + h_try
         err = np.inf
+        if EDGE_LOCATION and finite and h_try > EDGE_MIN_STEP:
+            # ---- slack edges: the first point where a coupling meets or leaves one
+            # (compiled in with rk.EDGE_LOCATION)
+            theta = 2.0
+            for j in range(n - 1):
+                th = _edge_crossing(j, y, ynew, n, h_try, EDGE_SPEED * atol[n + j], cpl)
+                if th < theta:
+                    theta = th
+            if theta < 1.0 - EDGE_TAIL:
+                # the step runs on past it in the old regime: take it again, ending just
+                # past the edge (the controller's step h is kept for the step after)
+                h_edge = max(theta * h_try / (1.0 - 0.5 * EDGE_TAIL), EDGE_MIN_STEP)
+                sp["rejected"] += 1
+                continue
         if finite:
             # the right-hand side at the step's end: the error's last stage, and the next
             # step's first if the step is accepted (first same as last)
@@ -339,7 +365,8 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
                 y[q] = ynew[q]
                 K[q] = K[ns * ny + q]  # first same as last
             _track_peaks(force, peaks, n - 1, t)
-            h = step_accepted(sp, err, h, h_try, hit)
+            h = step_accepted(sp, err, h, h_try, hit or at_edge)
+            h_edge = np.inf
         else:
             h = step_rejected(sp, err, h_try)
             if h < MIN_STEP:
