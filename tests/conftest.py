@@ -149,9 +149,12 @@ def traced_peak(call):
 
 
 # ------------------------------------------------- one compile for the test workers
-#: what the workers' kernels are compiled from: the study's fixed-step case, the
-#: heavy-haul trip's adaptive case and the gear rig (most tests call one of these three)
-WARM = ("scenarios/paper.toml", "scenarios/heavy-haul.toml", "rig")
+#: what the workers' kernels are compiled from: the study's fixed-step case (the
+#: kernel of the study's subsystems), the fixed-step and adaptive kernels of every
+#: subsystem (the induction-drive variant of the study, the heavy-haul trip) and the
+#: gear rig (most tests call one of these four; engine.features.KERNEL_SETS)
+WARM = ("scenarios/paper.toml", "scenarios/paper-induction.toml", "scenarios/heavy-haul.toml",
+        "rig")
 _WARM_CODE = """
 import sys
 from ltdsim.engine.warmup import gear_rig_kernel, scenario_kernels, warm_up
@@ -188,7 +191,7 @@ def pytest_configure(config):
     say = config.pluginmanager.get_plugin("terminalreporter")
     say = say.write_line if say is not None else print
     say(f"compiling {len(todo)} kernels for the test workers (once per change of the "
-        "compiled sources; about a minute)")
+        "compiled sources; one to two minutes)")
     t0 = time.perf_counter()
     procs = [subprocess.Popen([sys.executable, "-c", _WARM_CODE,
                                str(ROOT / w) if w != "rig" else w]) for w in todo]
