@@ -33,6 +33,9 @@ class KernelCall:
     name: str
     dispatcher: object
     args: tuple
+    #: how another process makes the same call: ``(function, arguments)``, the function
+    #: at module level returning this call (:func:`warm_up` with ``parallel``)
+    recipe: tuple | None = None
 
     def signature(self) -> tuple:
         """numba's argument types of the call (what a compile is specialised on)."""
@@ -71,12 +74,25 @@ def scenario_kernels(scenarios: Iterable) -> list[KernelCall]:
     for sc in scenarios:
         disp, args = zero_step_call(lower(sc))
         call = KernelCall("adaptive kernel (bs23)" if disp.__name__ == "run_adaptive"
-                          else "fixed-step kernel", disp, args)
+                          else "fixed-step kernel", disp, args,
+                          recipe=(_scenario_call, (sc,)))
         key = (disp.__name__, call.signature())
         if key not in seen:
             seen.add(key)
             calls.append(call)
     return calls
+
+
+def _scenario_call(sc) -> KernelCall:
+    """The one kernel call of :func:`scenario_kernels` for scenario ``sc``."""
+    return scenario_kernels([sc])[0]
+
+
+def _compile(recipe: tuple) -> None:
+    """Make the call of ``recipe`` (in a worker process of :func:`warm_up`): numba
+    compiles its kernel into the on-disk cache."""
+    make, args = recipe
+    make(*args)()
 
 
 def gear_rig_kernel() -> KernelCall:
@@ -92,11 +108,12 @@ def gear_rig_kernel() -> KernelCall:
     model, cpl, ctab = _lowered_gear(any_gear)
     t = np.array([0.0, 1e-4])
     return KernelCall("gear rig", _rig, rig_args(model, cpl, ctab, RIG_DEFLECTION, t, t * 0.0,
-                                                 t * 0.0, 1.0, 0.0, 1e-4, "ode3"))
+                                                 t * 0.0, 1.0, 0.0, 1e-4, "ode3"),
+                      recipe=(gear_rig_kernel, ()))
 
 
 def warm_up(calls: Iterable[KernelCall], tick: Tick | None = None,
-            interval: float = 1.0, load: bool = True) -> float:
+            interval: float = 1.0, load: bool = True, parallel: bool = False) -> float:
     """Compile (or load from the cache) every kernel of ``calls``; returns the seconds
     spent compiling (0 when everything was in the cache).
 
@@ -108,6 +125,11 @@ def warm_up(calls: Iterable[KernelCall], tick: Tick | None = None,
     ``interval`` seconds while it runs (from a helper thread: the compile itself runs
     here, so Ctrl-C stops it) and once at the end. Loads from the cache take well under
     a second and are not reported.
+
+    With ``parallel`` and more than one kernel to compile, each is compiled in a worker
+    process of its own, side by side on the cores (numba compiles one kernel on one
+    core), into the on-disk cache, and then loaded here; the workers end with this
+    process (:func:`ltdsim._workers.process_executor`).
     """
     calls = list(calls)
     todo = [c for c in calls if c.ready() is not True]
@@ -129,8 +151,10 @@ def warm_up(calls: Iterable[KernelCall], tick: Tick | None = None,
         thread = threading.Thread(target=ticker, name="ltdsim-compile-ticker", daemon=True)
         thread.start()
     try:
+        if parallel and len(todo) > 1 and all(c.recipe is not None for c in todo):
+            _compile_side_by_side(todo)
         for c in todo:
-            c()
+            c()  # (after the workers: a load from the cache)
     finally:
         stop.set()
         if thread is not None:
@@ -139,3 +163,15 @@ def warm_up(calls: Iterable[KernelCall], tick: Tick | None = None,
     if tick is not None:
         tick(elapsed, True)
     return elapsed
+
+
+def _compile_side_by_side(todo: list[KernelCall]) -> None:
+    """Compile every call of ``todo`` into numba's cache, each in a worker process."""
+    import os
+
+    from ltdsim._workers import process_executor
+
+    workers = min(len(todo), os.cpu_count() or 1)
+    with process_executor(workers) as pool:
+        for f in [pool.submit(_compile, c.recipe) for c in todo]:
+            f.result()

@@ -461,7 +461,7 @@ def _warm_up(out, cache, spec, base_case, reduction, reduction_maxiter, on_compi
         runs.append(base_case)
     kinds = {sc.solver.adaptive: sc for sc in runs}  # (one kernel per kind, see warmup)
     calls += scenario_kernels(kinds.values())
-    return warm_up(calls, on_compile)
+    return warm_up(calls, on_compile, parallel=True)
 
 
 def run_study(scenario_path: str | Path, out: str | Path = "report", *, case: str = STUDY_CASE,
