@@ -11,17 +11,18 @@ scenario may leave out. A subsystem is called through :func:`when`::
 
 which compiles to the call ``_fluid_brakes(t, y, ...)`` when the flag is :class:`On`
 and to the constant ``None`` (its third argument) when it is :class:`Off`, without
-typing or compiling ``_fluid_brakes`` at all. A scenario with the lumped brake, the
-traction curve and simplified couplers thus compiles neither the fluid brake, nor the
-induction drive, nor the hysteretic gears; each combination of flags is its own
+typing or compiling ``_fluid_brakes`` at all. The kernels are compiled for the sets
+of flags in :data:`KERNEL_SETS` (the study's subsystems, or all of them); a scenario
+with the lumped brake, the traction curve and simplified couplers thus compiles neither
+the fluid brake, nor the induction drive, nor the hysteretic gears. Each set is its own
 entry in numba's on-disk cache, compiled the first time a scenario needs it.
 
 A flag only removes code that the scenario's data would never run: every call behind
 :func:`when` also sits behind the run-time test it had before (an empty array, a model
 code), so a kernel with every flag :class:`On` gives the same numbers as one with only
-the flags the scenario needs, bit for bit (``benchmarks/check_bit_identical.py``
-against the code before the flags, which compiled everything; measured in
-docs/performance.md, "The first run").
+the flags the scenario needs, bit for bit (tests/engine/test_features.py;
+``benchmarks/check_bit_identical.py`` against the code before the flags, which compiled
+everything, in docs/performance.md, "The first run").
 """
 
 from __future__ import annotations
