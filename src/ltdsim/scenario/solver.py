@@ -24,8 +24,10 @@ class Solver(_Strict):
         "ode3", description="explicit Runge-Kutta method with a fixed step (ode3: "
                             "Bogacki-Shampine, third order); bs23: the same pair with error "
                             "control and adaptive steps")
-    dt: float = Field(1e-4, gt=0.0, le=1.0,
-                      description="step of the fixed-step methods; for bs23 the first step, s")
+    dt: float = Field(1e-4, ge=1e-9, le=1.0,
+                      description="step of the fixed-step methods; for bs23 the first step "
+                                  "(at least 1 ns: a train's fastest mode, a stiff "
+                                  "coupler's, has periods of milliseconds), s")
     t_end: float = Field(gt=0.0, le=1e7, description="end time, rounded down to a whole "
                                                      "number of output intervals, s")
     output_interval: float = Field(
