@@ -1120,3 +1120,10 @@ def test_track_positions_at_the_bound_load():
                   "curve": [[-1e7, 0.0], [1e7, 300.0]]}
     sc = build(d)
     assert sc.track.gradient[0] == (-1e7, 0.0)
+
+
+def test_a_step_too_small_to_count_is_refused_by_name(tmp_path):
+    """A denormal step makes output_interval / dt overflow to infinity (found by the
+    random-scenario property): refused naming dt, not an OverflowError."""
+    msg = load_error(tmp_path, EXAMPLE.replace("dt = 1e-4", "dt = 5e-324"))
+    assert "solver" in msg and "dt (4.94066e-324 s) is too small" in msg

@@ -5,7 +5,7 @@ found by numpy's companion-matrix solver."""
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from ltdsim.engine.couplers import N_COMMON, P_D0, P_SLACK
@@ -36,6 +36,8 @@ def _first_change(da, db, va, vb, half):
         for r in np.roots(coef + [da - level]):
             if abs(r.imag) < 1e-9 and 0.0 < r.real <= 1.0:
                 roots.append(r.real)
+    if abs(da) == half:  # (starting on an edge: it may leave it at once)
+        roots.append(0.0)
     # a root where the cubic only touches a level does not change the regime
     for r in sorted(roots):
         if regime(p(min(r + 1e-6, 1.0))) != r0 or regime(p(r)) != r0:
@@ -48,6 +50,7 @@ def _first_change(da, db, va, vb, half):
        db=st.floats(-0.02, 0.02, allow_subnormal=False),
        va=st.floats(-0.03, 0.03, allow_subnormal=False),
        vb=st.floats(-0.03, 0.03, allow_subnormal=False))
+@example(da=0.01, db=0.01, va=0.015625, vb=0.0078125)  # (starts on the draft edge, leaves at once)
 def test_the_first_edge_along_a_step_is_the_cubic_s_first_root(da, db, va, vb):
     n, h = 2, 0.01  # two vehicles, a 10 ms step; rates va, vb are per step (m)
     cpl = np.zeros((1, N_COMMON + 4))
