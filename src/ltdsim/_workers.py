@@ -69,7 +69,12 @@ def _watch(parent: int) -> None:
 
 def init_worker(parent: int) -> None:
     """Initializer of a worker process: end it when ``parent`` (the pid of the process
-    that started it) dies. Safe to call more than once."""
+    that started it) dies, and give it one BLAS thread (a pool has a worker per core:
+    OpenBLAS's own threads in each would only contend for the same cores). Safe to call
+    more than once."""
+    from threadpoolctl import threadpool_limits
+
+    threadpool_limits(limits=1, user_api="blas")
     _die_with_parent_linux()
     if os.getppid() != parent:  # the parent died before the request above took effect
         os._exit(1)  # noqa: SLF001

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import linalg, optimize, signal
+from threadpoolctl import threadpool_limits
 
 
 @dataclass
@@ -125,8 +126,13 @@ def identify(u, y, dt: float, na: int = 4, nb: int = 3, max_nfev: int = 1000,
             return np.full_like(out, 1e6)  # an unstable trial: a large, finite residual
         return out
 
-    res = optimize.least_squares(residual, theta0, method="trf", xtol=tol, ftol=tol,
-                                 gtol=tol, max_nfev=max_nfev)
+    # one BLAS thread: the fit's linear algebra (an SVD of the Jacobian, thousands of
+    # rows by na + nb + 1 columns, per iteration) ran 3x slower on OpenBLAS's threads
+    # than on one, also alone on two cores (the study's LLHH case, 1000 evaluations:
+    # 18 s against 6 s), and far slower still with two sweep workers side by side
+    with threadpool_limits(limits=1, user_api="blas"):
+        res = optimize.least_squares(residual, theta0, method="trf", xtol=tol, ftol=tol,
+                                     gtol=tol, max_nfev=max_nfev)
     a = np.concatenate([[1.0], res.x[:na]])
     b = res.x[na:] * sy / su
     r = res.fun * sy
