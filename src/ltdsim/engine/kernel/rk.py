@@ -63,7 +63,12 @@ EDGE_SPEED = 3.0
 
 
 
-@njit(cache=True, _nrt=False, forceinline=True)
+# (not cached on its own: it is compiled into each kernel, which is cached. Its argument
+# ``f`` is a compiled function, and numba's cache index keys such an argument by the
+# function object of the process that wrote it, which another process can neither match
+# nor always write back: a process saving a new version into an index that other
+# processes had written failed with "ReferenceError: underlying object has vanished")
+@njit(_nrt=False, forceinline=True)
 def _stages(f, p, t, y, h, A, C, ns, K, ytmp):
     """Stages 2 to ``ns`` of an explicit Runge-Kutta step of size ``h`` (s) from
     ``(t, y)`` of the right-hand side ``f(t, y, dy, p)`` (a compiled function writing
