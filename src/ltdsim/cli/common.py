@@ -125,7 +125,7 @@ def simulate_shown(sc, quiet: bool = False, source=None, step_source=None,
     with Display(err_console, quiet=quiet) as show:
         if est.seconds > ANNOUNCE_TIME:
             show.info(f"estimate for {scenario_label(sc)}: {est.line()}")
-        warm_up(scenario_kernels([sc]), show.compiling)
+        warm_up(scenario_kernels([sc]), show.compiling, parallel=True)
         update = show.bar(f"simulating {scenario_label(sc)}", sc.solver.n_steps * sc.solver.dt,
                           "s simulated", "{:.1f}")
         update(0.0)
