@@ -20,7 +20,7 @@ $(TESTSTAMP): $(STAMP)
 	$(BIN)/python -m pip install --disable-pip-version-check --progress-bar off -e ".[test]"
 	touch $(TESTSTAMP)
 
-## run: reproduce the whole study as one report in report/ (on 2 cores about 3 min from a
+## run: reproduce the whole study as one report in report/ (on 2 cores about 2.5 min from a
 ## fresh clone, install included; under 2 min once installed and the kernels cached)
 run: $(STAMP)
 	$(BIN)/ltdsim study scenarios/paper.toml --output report
