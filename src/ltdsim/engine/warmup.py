@@ -111,7 +111,7 @@ def _kernel_parts(sc, disp, args) -> tuple:
     tr, cp, dr, w, out = args[-5:]
     st = ctl.state[0]
     a_dem, n_ev, level = float(st["a_dem"]), int(st["n_events"]), float(st["level"])
-    speed_mode = bool(dr.par.shape[0] > 0)  # (a bool: its value does not matter here)
+    speed_mode = False  # (the record's type is a bool; its value does not matter here)
     rhs = rhs_module.rhs_split if disp.__name__ == "run_adaptive" else rhs_module.rhs
     ny = y.shape[0]
     spec = [("right-hand side", rhs, (0.0, y, a_dem, n_ev, tr, cp, dr, ctl.events, w,
