@@ -370,3 +370,45 @@ def test_the_kernel_gear_force_is_the_internal_force_clipped_to_both_curves(
     force = coupler_force(0, low.code, sgn * x, sgn * v, y, 0, dy, 0, r[None, :],
                           np.asarray(tables + [0.0]), ALL_KINDS)
     assert_allclose(sgn * force, max(min(max(f1, f_u), f_l), 0.0), rtol=1e-13, atol=1e-9)
+
+
+def _restitution(zeta: float) -> float:
+    """Coefficient of restitution of a linear spring-dashpot contact whose faces part
+    where its force comes to nothing (not where the spring is back at rest), damping
+    ratio ``zeta`` < 1/sqrt(2): Schwager & Poeschel, "Coefficient of restitution and
+    linear-dashpot model revisited", Granular Matter 9 (2007) 465-469, their Eq. 13."""
+    if zeta == 0.0:
+        return 1.0
+    w = math.sqrt(1.0 - zeta**2)  # damped over natural frequency
+    return math.exp(-zeta / w * (math.pi - math.atan(2.0 * zeta * w / (1.0 - 2.0 * zeta**2))))
+
+
+@settings(max_examples=8, deadline=None)
+@given(speed=st.floats(1e-3, 5e-3), zeta=st.floats(0.0, 0.6),
+       stiffness=st.sampled_from([5e7, 1e8, 2e8]))
+def test_a_slow_touch_rings_on_the_structure_at_the_end_of_the_slack(speed, zeta, stiffness):
+    # a touch too slow to reach the gear's released force stays on the structure in
+    # series with it: two 90 t wagons (reduced mass 45 t) on a spring-dashpot, so the
+    # peak force of an undamped touch is v sqrt(k mu) and the wagons part with the
+    # restitution of the linear dashpot model
+    mu = 45000.0
+    c = 2.0 * zeta * math.sqrt(stiffness * mu)
+    gear = CouplerParams(**HIGH, edge_stiffness=stiffness, edge_damping=c)
+    r = impact(gear, speed, dt=2e-5, t_max=1.0)
+    from ltdsim.engine.couplers import released_force
+
+    assert r["separated"]
+    assert r["peak_force_N"] < 0.5 * released_force(gear)  # never reached the gear
+    v = r["dataset"].velocity.values[-1]
+    assert_allclose((v[0] - v[1]) / speed, _restitution(zeta), atol=0.01)
+    if zeta == 0.0:
+        assert_allclose(r["peak_force_N"], speed * math.sqrt(stiffness * mu), rtol=0.01)
+
+
+def test_a_fast_run_in_meets_the_gear_through_a_stiff_structure_as_through_a_rigid_one():
+    # a run-in at 1.5 m/s carries the gear to its full travel: the millimetre of the
+    # structure below the gear's released force changes the peak force by little
+    rigid = impact(CouplerParams(**HIGH), 1.5)["peak_force_N"]
+    edge = impact(CouplerParams(**HIGH, edge_stiffness=1e8, edge_damping=2e6),
+                  1.5)["peak_force_N"]
+    assert_allclose(edge, rigid, rtol=0.02)

@@ -130,6 +130,18 @@ S_TABLE = ("S_table = { velocity = [0.0, 1.0], deflection = [0.0, 0.08], "
            "values = [[0.03, 0.03], [0.02, 0.02]] }")
 
 
+def test_edge_damping_without_an_edge_stiffness_is_refused(tmp_path):
+    # a dashpot across a rigid end of the slack would have no effect
+    good = edit(HEAVY, 'preset = "friction-wedge-high"\nslack = 0.02',
+                'preset = "friction-wedge-high"\nslack = 0.02\nedge_stiffness = 1e8\n'
+                'edge_damping = 2e6')
+    assert ltdsim.load_scenario(write(tmp_path, good)).coupler(5).edge_damping == 2e6
+    text = edit(HEAVY, 'preset = "friction-wedge-high"\nslack = 0.02',
+                'preset = "friction-wedge-high"\nslack = 0.02\nedge_damping = 2e6')
+    refused(tmp_path, text, r"couplers\.default: edge_damping acts only across the "
+                            r"structure of edge_stiffness")
+
+
 def test_s_and_s_table_together_are_refused(tmp_path):
     text = edit(HEAVY, 'preset = "friction-wedge-high"\nslack = 0.02',
                 f'preset = "friction-wedge-high"\nslack = 0.02\nS = 0.03\n{S_TABLE}')

@@ -44,6 +44,7 @@ from ltdsim.physics.gears.couplers import (
 )
 from ltdsim.physics.gears.cushion import cushion_force, force_at_rest, stroke_rate
 from ltdsim.physics.gears.draftgear import (
+    edge_structure,
     gear_force,
     plate_rate,
     plates_carried,
@@ -79,9 +80,11 @@ SIMPLIFIED_COLUMNS = ("preload", "damping", "k1", "k2", "k3", "inv_v_c", "by_rat
 (SIM_PRELOAD, SIM_DAMP, SIM_K1, SIM_K2, SIM_K3, SIM_IVC, SIM_RATE) = layout(
     *SIMPLIFIED_COLUMNS, start=N_COMMON)
 
-#: columns every hysteretic gear has first among its own: locked stiffness N/m
-HYSTERETIC_COLUMNS = ("k_locked",)
-(HYS_KLOCK,) = layout(*HYSTERETIC_COLUMNS, start=N_COMMON)
+#: columns every hysteretic gear has first among its own: locked stiffness N/m, and the
+#: stiffness N/m (0: rigid) and damping N s/m of the structure in series with the gear
+#: at the end of the slack (physics.gears.draftgear.edge_structure)
+HYSTERETIC_COLUMNS = ("k_locked", "edge_stiffness", "edge_damping")
+(HYS_KLOCK, HYS_KEDGE, HYS_CEDGE) = layout(*HYSTERETIC_COLUMNS, start=N_COMMON)
 
 #: friction_wedge (paper Eq. 1-7): tan alpha, tan beta, tan gamma, G and the speed
 #: ratios c1-c3 (physics.draftgear.wedge_geometry, -); friction h1 h2 -, h3 s/m;
@@ -92,13 +95,13 @@ WEDGE_COLUMNS = HYSTERETIC_COLUMNS + (
     "tan_alpha", "tan_beta", "tan_gamma", "G", "c1", "c2", "c3", "h1", "h2", "h3", "S",
     "S_table", "S_n_velocity", "S_n_deflection", "k_m", "x_m0", "k_r", "x_r0",
     "plate_gap", "plate_backlash")
-(_, WG_TA, WG_TB, WG_TG, WG_G, WG_C1, WG_C2, WG_C3, WG_H1, WG_H2, WG_H3, WG_S, WG_STAB, WG_SNV, WG_SNX,
+(_, _, _, WG_TA, WG_TB, WG_TG, WG_G, WG_C1, WG_C2, WG_C3, WG_H1, WG_H2, WG_H3, WG_S, WG_STAB, WG_SNV, WG_SNX,
  WG_KM, WG_XM0, WG_KR, WG_XR0, WG_GAP, WG_BACK) = layout(*WEDGE_COLUMNS, start=N_COMMON)
 
 #: table: offsets and lengths of the loading and unloading curves in the table store
 TABLE_COLUMNS = HYSTERETIC_COLUMNS + ("loading", "loading_len", "unloading",
                                       "unloading_len")
-(_, TAB_LOAD, TAB_NLOAD, TAB_UNL, TAB_NUNL) = layout(*TABLE_COLUMNS, start=N_COMMON)
+(_, _, _, TAB_LOAD, TAB_NLOAD, TAB_UNL, TAB_NUNL) = layout(*TABLE_COLUMNS, start=N_COMMON)
 
 #: polymer (physics.polymer): static curve preload N, initial stiffness N/m, force at
 #: the travel N, exponent -; return ratio -, rate gains on loading and unloading -,
@@ -106,7 +109,7 @@ TABLE_COLUMNS = HYSTERETIC_COLUMNS + ("loading", "loading_len", "unloading",
 POLYMER_COLUMNS = HYSTERETIC_COLUMNS + ("preload", "initial_stiffness", "force_at_travel",
                                         "exponent", "return_ratio", "gain_loading",
                                         "gain_unloading", "rate_speed")
-(_, POL_P, POL_K0, POL_FX, POL_N, POL_R, POL_AL, POL_AU, POL_VR) = layout(
+(_, _, _, POL_P, POL_K0, POL_FX, POL_N, POL_R, POL_AL, POL_AU, POL_VR) = layout(
     *POLYMER_COLUMNS, start=N_COMMON)
 
 #: cushion (physics.gears.cushion): preload N, return spring N/m, oil column N/m, the
@@ -186,6 +189,7 @@ def _gear(j, model, d, dd, slack, y, zo, dy, dzo, cpl, ctab):
         f_l = f_u = s_l = s_u = 0.0
     f, df1 = gear_force(f1, f_l, f_u, s_l, s_u, v, x, cpl[j, P_TRAVEL], cpl[j, P_KSOLID],
                         cpl[j, HYS_KLOCK], rate)
+    f = edge_structure(f, x, v, cpl[j, HYS_KEDGE], cpl[j, HYS_CEDGE])
     dy[dzo] = df1
     if wedge:
         dy[dzo + 1] = plate_rate(x - cpl[j, WG_GAP], y[zo + 1], v, cpl[j, WG_BACK], rate)
@@ -395,7 +399,8 @@ def _wedge_released(c) -> float:
 
 
 def _lower_polymer(c, tables) -> dict:
-    return {name: float(getattr(c, name)) for name in POLYMER_COLUMNS}
+    return {name: float(getattr(c, name))
+            for name in ("k_locked",) + POLYMER_COLUMNS[len(HYSTERETIC_COLUMNS):]}
 
 
 def _polymer_stiffness(c, branch: str) -> float:
@@ -556,6 +561,9 @@ def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
         y0 = (row[P_F0],) + (0.0,) * (len(states) - 1)
     for name, value in entry.lower(c, tables).items():
         row[entry.column(name)] = value
+    if entry.hysteretic:  # the structure at the end of the slack (0: rigid)
+        row[HYS_KEDGE] = c.edge_stiffness if c.edge_stiffness is not None else 0.0
+        row[HYS_CEDGE] = c.edge_damping
     return LoweredCoupler(entry.code, row, states, y0, entry.hysteretic)
 
 
@@ -606,8 +614,10 @@ def stored_energy(c, d: float, points: int = 201) -> float:
     draft), J: what its gears give back released slowly to the end of the slack, the
     integral of each gear's force at rest on the way back (a hysteretic gear's unloading
     curve) over its share of the deflection, times the gears in series, plus the solid
-    gear's part past the travel. 0 inside the slack. A coupler's work since the start
-    (``coupler_energy``) less this is what its gears have dissipated."""
+    gear's part past the travel. 0 inside the slack. A hysteretic gear's structure at the
+    end of the slack (``edge_stiffness``) caps that force by its spring's. A coupler's
+    work since the start (``coupler_energy``) less this is what its gears have
+    dissipated."""
     h = 0.5 * c.slack
     if abs(d) <= h and c.slack > 0.0:
         return 0.0
@@ -615,6 +625,8 @@ def stored_energy(c, d: float, points: int = 201) -> float:
     branch = "draft" if d > 0.0 else "buff"
     xs = np.linspace(0.0, x, points)
     f = np.asarray(REGISTRY[c.model].at_rest(c, xs, branch), dtype=float)
+    if REGISTRY[c.model].hysteretic and c.edge_stiffness is not None:
+        f = np.minimum(f, c.edge_stiffness * xs)
     energy = float(np.trapezoid(f, xs))
     if c.travel is not None and x > c.travel:
         energy += 0.5 * c.solid_stiffness * (x - c.travel) ** 2
@@ -628,9 +640,14 @@ def fastest_lag(c) -> tuple[str, float] | None:
 
 
 def stiffest(c) -> float:
-    """Tangent stiffness of coupling ``c`` at its stiffest, N/m, solid closure included:
-    one gear's over its ``gears`` in series (the fixed-step stability check)."""
-    return REGISTRY[c.model].stiffest(c) / c.gears
+    """Tangent stiffness of coupling ``c`` at its stiffest, N/m, solid closure and a
+    hysteretic gear's structure at the end of the slack included: one gear's over its
+    ``gears`` in series (the fixed-step stability check)."""
+    entry = REGISTRY[c.model]
+    k = entry.stiffest(c)
+    if entry.hysteretic and c.edge_stiffness is not None:
+        k = max(k, c.edge_stiffness)
+    return k / c.gears
 
 
 def _check_registry() -> None:

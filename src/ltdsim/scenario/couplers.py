@@ -317,6 +317,23 @@ class _HystereticGear(_CouplerBase):
     # solver and step; 0.4 ms, the time scale of the gear's own parts (docs/draftgear.md)
     tracking_time: float = Field(4e-4, gt=0.0, le=1.0,
                                  description="time constant of the internal states, s")
+    # what is in series with the gear at the end of the slack (coupler, yoke, draft
+    # sill): without it the force steps from nothing to the gear's released force as the
+    # slack closes (physics.gears.draftgear.edge_structure, docs/draftgear.md)
+    edge_stiffness: float | None = Field(
+        None, gt=0.0, le=1e11,
+        description="stiffness of the structure in series with the gear at the end of "
+                    "the slack, up to the gear's force, N/m (none: rigid, the force steps "
+                    "to the gear's released force there)")
+    edge_damping: float = Field(
+        0.0, ge=0.0, le=1e9,
+        description="damping of that structure, N s/m (needs edge_stiffness)")
+
+    def _check(self) -> None:
+        if self.edge_damping > 0.0 and self.edge_stiffness is None:
+            raise ValueError("edge_damping acts only across the structure of "
+                             "edge_stiffness; give edge_stiffness too, or leave "
+                             "edge_damping out (a rigid end of the slack has no damping)")
 
     @property
     def damping(self) -> float:
@@ -356,6 +373,7 @@ class FrictionWedgeGear(_HystereticGear):
         return ["S or S_table"] if self.S is None and self.S_table is None else []
 
     def _check(self) -> None:
+        super()._check()
         if self.S is not None and self.S_table is not None:
             raise ValueError("S and S_table both given: the lubrication factor is either the "
                              "constant S or the table S_table (impact speed m/s, deflection "
@@ -384,6 +402,7 @@ class TableGear(_HystereticGear):
                                      description="[deflection m, force N] unloading curve")
 
     def _check(self) -> None:
+        super()._check()
         for name in ("loading", "unloading"):
             pts = getattr(self, name)
             _check_table(pts, f"{name} deflections, m", lambda f: 0.0 <= f <= 1e8,
@@ -450,6 +469,7 @@ class PolymerGear(_HystereticGear):
                                      description="closing-speed scale of the rise, m/s")
 
     def _check(self) -> None:
+        super()._check()
         if self.force_at_travel < self.preload + self.initial_stiffness * self.travel:
             raise ValueError("force_at_travel must be at least preload + initial_stiffness "
                              "* travel (the static curve never falls)")

@@ -234,6 +234,32 @@ def gear_force(f1, f_l, f_u, s_l, s_u, v, x, travel, solid_stiffness, k_locked, 
     return f, df1
 
 
+
+@njit(cache=True, inline="always")
+def edge_structure(f, x, v, stiffness, damping):
+    """Force across a coupling's structure at the end of its slack, N (a magnitude).
+
+    Below its preload a friction gear does not move, so the force rises from nothing at
+    the end of the slack to the gear's through what is in series with it: the coupler
+    shank and knuckle, the yoke, the draft sill. That structure is a spring of
+    ``stiffness`` (N/m) and a dashpot of ``damping`` (N s/m) on the deflection ``x`` (m
+    beyond the slack, a magnitude) and its rate ``v`` (m/s, > 0 closing) for as long as
+    its spring carries less than the gear's force ``f`` (N); from there on the gear
+    deflects and carries ``f``. The dashpot only pushes (contact is one-sided: the
+    faces part where the force comes to nothing, before ``x`` is back at 0) and never
+    lifts the force above the gear's. ``stiffness = 0`` is a rigid structure: the force
+    steps from 0 to the gear's at the edge and ``f`` is returned unchanged.
+    """
+    if stiffness <= 0.0:
+        return f
+    spring = stiffness * x
+    if spring >= f:
+        return f
+    g = spring + damping * v
+    if g <= 0.0:
+        return 0.0
+    return g if g < f else f
+
 #: contact tolerance between follower, spring seat and plates, m. The plate state tracks
 #: the follower exactly while pushed; without a tolerance the test "follower at the
 #: plates" would flip from step to step on rounding.
@@ -378,6 +404,6 @@ def wedge_gear_quasistatic(x, loading, angles, friction, s_factor, springs, gap=
 
 __all__ = [
     "friction_coefficient", "wedge_geometry", "spring_forces", "wedge_curves",
-    "hysteresis", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
+    "hysteresis", "edge_structure", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
     "wedge_gear_quasistatic",
 ]
