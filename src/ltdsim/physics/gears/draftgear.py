@@ -234,7 +234,6 @@ def gear_force(f1, f_l, f_u, s_l, s_u, v, x, travel, solid_stiffness, k_locked, 
     return f, df1
 
 
-
 @njit(cache=True, inline="always")
 def edge_structure(f, x, v, stiffness, damping):
     """Force across a coupling's structure at the end of its slack, N (a magnitude).
@@ -259,6 +258,7 @@ def edge_structure(f, x, v, stiffness, damping):
     if g <= 0.0:
         return 0.0
     return g if g < f else f
+
 
 #: contact tolerance between follower, spring seat and plates, m. The plate state tracks
 #: the follower exactly while pushed; without a tolerance the test "follower at the
@@ -404,6 +404,7 @@ def wedge_gear_quasistatic(x, loading, angles, friction, s_factor, springs, gap=
 
 __all__ = [
     "friction_coefficient", "wedge_geometry", "spring_forces", "wedge_curves",
-    "hysteresis", "edge_structure", "plate_rate", "plates_pushed", "plates_out", "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
+    "hysteresis", "edge_structure", "plate_rate", "plates_pushed", "plates_out",
+    "plates_carried", "PLATE_TOL", "s_table_lookup", "table_curve",
     "wedge_gear_quasistatic",
 ]
