@@ -16,8 +16,8 @@ and how many are more than 2 % off (against 1e-4 s, against 5e-5 s when given, a
 two fixed steps against each other). The trip's wall time is also given in hand-kernel
 seconds: over the median wall time of the hand-written kernel of
 benchmarks/reference_kernel.py on the study's 270 s case, run before and after the trip
-in the same process (issue 34's unit, so that the machine's speed cancels). ``--make-fixed`` runs that one trip, writes
-its file and stops, so that both can run side by side on two cores. Prints a table and
+in the same process (issue 34's unit, so that the machine's speed cancels).
+``--make-fixed`` runs that one trip, writes its file and stops, so that both can run side by side on two cores. Prints a table and
 writes it to benchmarks/results/bench_heavy_haul.md and .json, and the trip's overview
 figure to benchmarks/results/heavy_haul_trip.png.
 
@@ -233,8 +233,9 @@ def _hand_wall(study) -> float:
 
 
 def _released_forces(sc) -> np.ndarray:
-    """Each coupling's gear force at the end of its slack, N (the released force of a
-    hysteretic gear: the smallest force a touch of the edge gives)."""
+    """Each coupling's released force, N: a hysteretic gear's force at the end of its
+    slack on its loading curve (:func:`ltdsim.engine.couplers.released_force`), the
+    scale below which a peak's difference is not counted in per cent of the peak."""
     from ltdsim.engine.couplers import released_force
 
     return np.array([released_force(sc.coupler(j)) for j in range(sc.n_vehicles - 1)])

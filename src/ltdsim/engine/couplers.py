@@ -562,9 +562,15 @@ def lower_coupler(c, tables: list[float], *, sign0: float = 0.0,
     for name, value in entry.lower(c, tables).items():
         row[entry.column(name)] = value
     if entry.hysteretic:  # the structure at the end of the slack (0: rigid)
-        row[HYS_KEDGE] = c.edge_stiffness if c.edge_stiffness is not None else 0.0
+        row[HYS_KEDGE] = edge_stiffness(c) or 0.0
         row[HYS_CEDGE] = c.edge_damping
     return LoweredCoupler(entry.code, row, states, y0, entry.hysteretic)
+
+
+def edge_stiffness(c) -> float | None:
+    """Stiffness of the structure in series with coupler ``c``'s gear at the end of its
+    slack, N/m (a hysteretic gear's ``edge_stiffness``); None where the end is rigid."""
+    return c.edge_stiffness if REGISTRY[c.model].hysteretic else None
 
 
 def released_force(c) -> float:
@@ -625,8 +631,9 @@ def stored_energy(c, d: float, points: int = 201) -> float:
     branch = "draft" if d > 0.0 else "buff"
     xs = np.linspace(0.0, x, points)
     f = np.asarray(REGISTRY[c.model].at_rest(c, xs, branch), dtype=float)
-    if REGISTRY[c.model].hysteretic and c.edge_stiffness is not None:
-        f = np.minimum(f, c.edge_stiffness * xs)
+    k_edge = edge_stiffness(c)
+    if k_edge is not None:
+        f = np.minimum(f, k_edge * xs)
     energy = float(np.trapezoid(f, xs))
     if c.travel is not None and x > c.travel:
         energy += 0.5 * c.solid_stiffness * (x - c.travel) ** 2
@@ -643,11 +650,7 @@ def stiffest(c) -> float:
     """Tangent stiffness of coupling ``c`` at its stiffest, N/m, solid closure and a
     hysteretic gear's structure at the end of the slack included: one gear's over its
     ``gears`` in series (the fixed-step stability check)."""
-    entry = REGISTRY[c.model]
-    k = entry.stiffest(c)
-    if entry.hysteretic and c.edge_stiffness is not None:
-        k = max(k, c.edge_stiffness)
-    return k / c.gears
+    return max(REGISTRY[c.model].stiffest(c), edge_stiffness(c) or 0.0) / c.gears
 
 
 def _check_registry() -> None:
