@@ -9,7 +9,7 @@ the fixed step's own rounding. This benchmark measures that on two windows of
 scenarios/heavy-haul.toml (its 60 s ``emergency`` case, and 20 s of cruise at 18 m/s from
 stretched couplers), with the shipped rigid end of the slack and with a structure there
 (``edge_stiffness``, ``edge_damping``; docs/draftgear.md), about critically damped or
-lightly damped as open LTD codes set it (:data:`ENDS`):
+lightly damped as open LTD codes set it (``bench_heavy_haul.ENDS``):
 
 - the reference: fixed-step ode3 at ``--dt`` (5e-5 s) and, for its own convergence, at
   half that step;
@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 from _results import publish
-from bench_heavy_haul import COUPLER_TOL, HEAVY, _released_forces, per_coupler
+from bench_heavy_haul import COUPLER_TOL, ENDS, HEAVY, _released_forces, per_coupler
 
 import ltdsim
 from ltdsim._provenance import code_hash
@@ -53,20 +53,6 @@ WINDOWS = {
     "cruise": (None, {"solver.t_end": 20.0, "initial.speed": 18.0,
                       "driver.speed_profile": [[0.0, 18.0]],
                       "initial.couplers": "stretched"}),
-}
-#: the ends of the slack: the shipped rigid one; the damped structure measured in
-#: docs/draftgear.md ("The end of the slack": about critically damped for two 130 t
-#: wagons); and a lightly damped one as open LTD codes set it: the structure stiffness
-#: of the Russian Railway Simulator's SA-3 joint configuration (2e8 N/m,
-#: github.com/maisvendoo/RRS, cfg/devices/joint-SA3-SA3.xml) with the connection damper
-#: of Wabtec's FastSim (3 kip/(in/s) = 5.25e5 N s/m, github.com/garcia-onate/stuff,
-#: pysim/defineCouplers.py): a damping ratio of about 0.07 for two 130 t wagons
-ENDS = {
-    "rigid": {},
-    "damped": {"couplers.default.edge_stiffness": 1e8,
-               "couplers.default.edge_damping": 5e6},
-    "elastic": {"couplers.default.edge_stiffness": 2e8,
-                "couplers.default.edge_damping": 5.25e5},
 }
 #: bs23 runs: the scenario's tolerances divided by these
 TIGHTER = (1.0, 10.0, 100.0)
