@@ -94,8 +94,8 @@ def _ringing_error(ds):
 def test_a_speed_tolerance_holds_the_coupling_to_it_at_any_train_speed():
     # Galilean invariance: the coupling's motion does not depend on the train's speed, so
     # with the speeds held to speed_atol alone neither does its error; and that error
-    # follows the tolerance (over 100 periods of the 10 Hz ringing, about 0.8 mm at the
-    # scenario's own tolerances, where the speeds' relative part lets it grow with the
+    # follows the tolerance (over 100 periods of the 20 Hz ringing, about 0.8 mm at rest at
+    # the scenario's own tolerances, where the speeds' relative part lets it grow with the
     # train's speed)
     amplitude = 0.1 / np.sqrt(RING_K / 30000.0)  # 0.77 mm
     held = {v: _ringing_error(_ringing_pair(v, 1e-6)) for v in (0.0, 40.0)}

@@ -59,9 +59,9 @@ class Solver(_Strict):
         description="bs23: absolute tolerance on the vehicles' speeds, m/s (their error "
                     "is then held to it alone, whatever the train's speed: a coupler's "
                     "force depends on the differences of the speeds, not on the speed. "
-                    "Left out, atol x 10 plus rtol x the speed: 18 mm/s at 18 m/s with "
-                    "the heavy-haul scenario's rtol 1e-3. Single couplers' peaks of a "
-                    "long train need about 1e-6 m/s, docs/heavy-haul.md)")
+                    "Left out, atol x 10 plus rtol x the speed: 19 mm/s at 18 m/s with "
+                    "the heavy-haul scenario's tolerances. Single couplers' peaks of a "
+                    "long train need 1e-5 to 1e-6 m/s, docs/heavy-haul.md)")
     max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23: largest step, s")
     air_max_step: float = Field(
         1.0, gt=0.0, le=100.0,
