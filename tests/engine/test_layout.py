@@ -275,6 +275,12 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     assert (low.atol[:nv] == 2e-7).all()  # positions: atol
     assert low.atol[nv:2 * nv] == pytest.approx(2e-6)  # vehicle speeds: 10 x atol
     assert low.atol[low.cons[0, col(K, "lag_state")].astype(int)] == pytest.approx(2e-7 * 1e6)
+    # speed_atol: the speeds held to it alone, the other states' tolerances unchanged
+    held = lower(sc.with_overrides({"solver.speed_atol": 3e-5}))
+    assert (held.atol[nv:2 * nv] == 3e-5).all() and (held.rtol[nv:2 * nv] == 0.0).all()
+    rest = np.r_[0:nv, 2 * nv:len(low.atol)]
+    np.testing.assert_array_equal(held.atol[rest], low.atol[rest])
+    np.testing.assert_array_equal(held.rtol[rest], low.rtol[rest])
     # driver: notch mode and its profile; brake schedule and position triggers
     assert low.drv[col(D, "mode")] == L.DRIVER_MODES.index("notch")
     np.testing.assert_array_equal(low.prof_t, [0.0, 2.0])
@@ -338,7 +344,8 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
         # transitions and profile through Track.resistance_curve, checked there)
         Track: set(track) | {"transitions", "cant", "profile", "profile_file",
                              "rail_spacing"},
-        Solver: set(solver) | {"stability_check", "record", "energy", "energy_interval"},
+        Solver: set(solver) | {"stability_check", "record", "energy", "energy_interval",
+                               "speed_atol"},
         #       (a check at validation; energy just above; energy_interval below)
         Initial: {"speed", "velocities", "couplers"},
     }
