@@ -386,10 +386,10 @@ def lower(s: Scenario) -> Lowered:
              "exhausted": np.inf, "energy": np.inf}
     scale.update({"flux": sv.atol, "volt": sv.atol * VOLT_SCALE,
                   "omega": sv.atol, "torque": sv.atol * FORCE_SCALE})
-    # (speeds held to an absolute tolerance alone when one is given: no relative part)
-    no_rtol = ("x", "exhausted", "energy") + (("speed",) if sv.speed_atol else ())
-    if sv.speed_atol:
+    no_rtol = ("x", "exhausted", "energy")
+    if sv.speed_atol is not None:  # the speeds held to an absolute tolerance alone
         scale["speed"] = sv.speed_atol
+        no_rtol += ("speed",)
     atol = np.array([scale[k] for k in kinds])
     atol[gear_f1] = sv.atol * GEAR_FORCE_SCALE
     rtol = np.array([0.0 if k in no_rtol else sv.rtol for k in kinds])
