@@ -38,6 +38,7 @@ bench: $(TESTSTAMP)
 	$(BIN)/python benchmarks/bench_study.py
 	$(BIN)/python benchmarks/bench_heavy_haul.py
 	$(BIN)/python benchmarks/bench_peak_sensitivity.py
+	$(BIN)/python benchmarks/bench_held_edges.py
 	$(BIN)/python benchmarks/bench_fluid_brake.py
 	$(BIN)/python benchmarks/bench_curving.py
 	$(BIN)/python benchmarks/bench_first_run.py

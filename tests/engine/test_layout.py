@@ -281,6 +281,10 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
     rest = np.r_[0:nv, 2 * nv:len(low.atol)]
     np.testing.assert_array_equal(held.atol[rest], low.atol[rest])
     np.testing.assert_array_equal(held.rtol[rest], low.rtol[rest])
+    # hold_speed: the speed the kernel holds couplings below (0: none); which couplings,
+    # and up to what force, tests/engine/test_held_edges.py
+    assert lower(sc.with_overrides({"solver.hold_speed": 2e-3})).hold_speed == 2e-3
+    assert low.hold_speed == 0.0
     # driver: notch mode and its profile; brake schedule and position triggers
     assert low.drv[col(D, "mode")] == L.DRIVER_MODES.index("notch")
     np.testing.assert_array_equal(low.prof_t, [0.0, 2.0])
@@ -345,7 +349,7 @@ def test_locomotive_track_solver_driver_and_initial_keys_land_in_their_places():
         Track: set(track) | {"transitions", "cant", "profile", "profile_file",
                              "rail_spacing"},
         Solver: set(solver) | {"stability_check", "record", "energy", "energy_interval",
-                               "speed_atol"},
+                               "speed_atol", "hold_speed"},
         #       (a check at validation; energy just above; energy_interval below)
         Initial: {"speed", "velocities", "couplers"},
     }

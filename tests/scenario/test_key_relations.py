@@ -234,6 +234,9 @@ FORCE_MODE = 'mode = "force"'
     (edit(TWO, "output_interval = 1e-3", "output_interval = 1e-3\nspeed_atol = 1e-6"),
      "solver.speed_atol", r"with method = 'rk4' \(a fixed step\)",
      r"speed_atol is read by the adaptive method: set solver\.method = 'bs23'"),
+    (edit(TWO, "output_interval = 1e-3", "output_interval = 1e-3\nhold_speed = 3e-3"),
+     "solver.hold_speed", r"with method = 'rk4' \(a fixed step\)",
+     r"hold_speed is read by the adaptive method: set solver\.method = 'bs23'"),
     (edit(SHORT, 'couplers = "stretched"', 'couplers = "stretched"\nspeed = 5.0\n'
                                            'velocities = [1.0, 1.0, 1.0, 1.0, 1.0]'),
      "initial.speed", r"initial\.velocities gives each vehicle's initial speed",

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ltdsim.engine.couplers import N_CCOL, P_D0, lower_coupler
+from ltdsim.engine.couplers import HYS_KEDGE, N_CCOL, P_D0, P_F0, P_SLACK, lower_coupler
 from ltdsim.engine.integrators import BS23, Tableau, get_tableau
 from ltdsim.engine.layout import (
     A_AREA, A_ATM, A_COND, A_DIAM, A_GAMMA, A_RGAS, A_RLIN, A_ROUGH, A_TEMP, A_THERMAL,
@@ -63,6 +63,18 @@ FLOW_SCALE = 10.0
 DENSITY_SCALE = 10.0
 #: largest number of brake commands (events) one run can issue
 MAX_EVENTS = 4096
+
+
+def hold_force(one) -> float:
+    """The force up to which a lowered coupling ``one`` (:func:`lower_coupler`) may be
+    held at its slack edge under ``solver.hold_speed``, N: a hysteretic gear's released
+    force where the gear has a preload, a slack and a rigid end (no ``edge_stiffness``),
+    so that its force steps from none to that preload as the slack closes; else 0 (it
+    never is held)."""
+    row = one.row
+    if one.hysteretic and row[P_F0] > 0.0 and row[HYS_KEDGE] == 0.0 and row[P_SLACK] > 0.0:
+        return float(row[P_F0])
+    return 0.0
 
 
 @dataclass(frozen=True)
@@ -127,6 +139,14 @@ class Lowered:
     # gear with an S table, whose impact speed follows the closing speed)
     gear_plate: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     gear_exact: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    # bs23 with solver.hold_speed: the speed below which a coupling meeting its slack edge
+    # is held there, m/s (0: none is), the force up to which each coupling may be held,
+    # N (0: it never is: no preload, a structure at the end of its slack, no slack), and
+    # the force tolerance within which a held force may pass that range at a step's end
+    # without the step being cut, N
+    hold_speed: float = 0.0
+    hold_f: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    hold_ftol: float = 0.0
     drive_motor: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     drive_ctrl: np.ndarray = field(default_factory=lambda: np.zeros((0, 18)))
     drive_ws: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
@@ -197,10 +217,12 @@ def lower(s: Scenario) -> Lowered:
     gear_of: list[int] = []
     gear_plate: list[int] = []
     gear_exact: list[int] = []
+    hold_f = np.zeros(nc)
     for i in range(nc):
         one = lower_coupler(s.coupler(i), tables, sign0=sign0, state_offset=nz)
         cpl_model[i] = one.code
         cpl[i] = one.row
+        hold_f[i] = hold_force(one)
         if one.hysteretic:  # its internal force F1 comes first
             gear_f1.append(2 * n + nz)
             gear_of.append(i)
@@ -407,6 +429,8 @@ def lower(s: Scenario) -> Lowered:
         gear_f1=np.array(gear_f1, dtype=np.int64), gear_of=np.array(gear_of, dtype=np.int64),
         gear_plate=np.array(gear_plate, dtype=np.int64),
         gear_exact=np.array(gear_exact, dtype=np.int64),
+        hold_speed=float(sv.hold_speed or 0.0) if sv.adaptive else 0.0, hold_f=hold_f,
+        hold_ftol=sv.atol * GEAR_FORCE_SCALE,
         **fluid_extra, **_drive_fields(drive_rows, len(consists)),
     )
 

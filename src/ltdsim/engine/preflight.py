@@ -449,5 +449,30 @@ def check(scenario, source: str | None = None) -> StepLimit | None:
     lim = step_limit(scenario)
     if lim is not None and scenario.solver.stability_check and lim.share > 1.0:
         raise ScenarioError(source or f"scenario {scenario.name!r}", [("", refusal(lim))])
+    if scenario.solver.adaptive and scenario.solver.hold_speed is not None \
+            and not _any_holdable(scenario):
+        raise ScenarioError(source or f"scenario {scenario.name!r}", [(
+            "solver.hold_speed", "no coupling of this train can be held at its slack edge, "
+            "so the key would have no effect: it needs a friction_wedge, table or polymer "
+            "gear with a preload, a slack and no edge_stiffness; leave it out")])
     return lim
+
+
+def _any_holdable(scenario) -> bool:
+    """Has ``scenario``'s train a coupling that ``solver.hold_speed`` may hold
+    (:func:`ltdsim.engine.lowering.hold_force`)?"""
+    from ltdsim.engine.couplers import lower_coupler
+    from ltdsim.engine.lowering import hold_force
+
+    n = sum(v.count for v in scenario.vehicles)
+    seen = set()
+    for i in range(n - 1):
+        c = scenario.coupler(i)
+        key = c.model_dump_json()
+        if key in seen:
+            continue
+        seen.add(key)
+        if hold_force(lower_coupler(c, [], sign0=0.0, state_offset=0)) > 0.0:
+            return True
+    return False
 

@@ -295,6 +295,7 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
         err_atol[low.gear_f1] = np.inf
         err_atol[low.gear_plate[low.gear_plate >= 0]] = np.inf
         grid = kernel.Adaptive(out_dt=low.record_every * low.dt, n_rec=n_rec,
+                               hold_speed=low.hold_speed, hold_ftol=low.hold_ftol,
                                h_max=low.max_step,
                                air_h_max=low.air_max_step, atol=low.atol, rtol=low.rtol, A=tab.A,
                                b=tab.b, c=tab.c, e=tab.e, err_atol=err_atol,
@@ -303,6 +304,8 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
     else:
         grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
                                 energy_every=low.energy_every, A=tab.A, b=tab.b, c=tab.c)
+    if low.hold_f.size:  # (the couplings that may be held at their slack edge)
+        common[3].hold_f[:low.hold_f.size] = low.hold_f
     stepper = kernel.make_stepper(low.dt)  # bs23 carry-over
     return rec, y, ctl, stepper, grid, common
 
@@ -376,6 +379,7 @@ def integrate(low: Lowered, scenario: Scenario, progress, chunks):
     rec["n_events"] = int(ctl.state[0]["n_events"])
     st = stepper[0]
     rec["steps"] = (int(st["accepted"]), int(st["rejected"])) if low.adaptive else (low.n_steps, 0)
+    rec["holds"] = int(st["holds"]) if low.adaptive else 0
     air = common[3].air_step[0]
     rec["air_steps"] = (int(air["accepted"]), int(air["rejected"]))
     return rec

@@ -212,6 +212,9 @@ def _dataset(scenario: Scenario, low: Lowered, rec: dict, wall: float,
         # the pneumatic states' own steps (kernel.run_adaptive)
         ds.attrs["air_steps"] = rec["air_steps"][0]
         ds.attrs["air_rejected_steps"] = rec["air_steps"][1]
+    if scenario.solver.adaptive and scenario.solver.hold_speed is not None:
+        # couplings held at, or released from, their slack edges (solver.hold_speed)
+        ds.attrs["edge_holds"] = rec["holds"]
     if scenario.curving is not None:  # after the run, from the records (ltdsim.results.safety)
         ds = _with_curving(ds, scenario)
     if ds.sizes.get("coupler", 0):  # a saved result carries them (ltdsim.results.strength)

@@ -62,6 +62,17 @@ class Solver(_Strict):
                     "Left out, atol x 10 plus rtol x the speed: 19 mm/s at 18 m/s with "
                     "the heavy-haul scenario's tolerances. Single couplers' peaks of a "
                     "long train need 1e-5 to 1e-6 m/s, docs/heavy-haul.md)")
+    hold_speed: Optional[float] = Field(
+        None, gt=0.0, le=0.1,
+        description="bs23: the closing or opening speed below which a coupling that meets "
+                    "or leaves its slack edge is held there, if its gear has a preload "
+                    "and a rigid end of the slack (no edge_stiffness), m/s (held, the "
+                    "vehicles on its two sides move as one body and it carries the force "
+                    "that makes them, until that force leaves the range from none to the "
+                    "gear's released force; the touch is plastic, its kinetic energy the "
+                    "coupler's work. Left out, none is held: such a coupling chatters at "
+                    "its edge and its force alternates between none and the preload, "
+                    "docs/heavy-haul.md, \"Couplings held at their slack edge\")")
     max_step: float = Field(0.05, gt=0.0, le=10.0, description="bs23: largest step, s")
     air_max_step: float = Field(
         1.0, gt=0.0, le=100.0,

@@ -28,7 +28,7 @@ _LUMPED_ONLY = {
 _FLUID_ONLY = ("piston_area", "return_spring", "efficiency")
 
 #: the adaptive method's keys (none of them read by a fixed-step method)
-_ADAPTIVE_ONLY = ("rtol", "atol", "speed_atol", "max_step", "air_max_step")
+_ADAPTIVE_ONLY = ("rtol", "atol", "speed_atol", "hold_speed", "max_step", "air_max_step")
 
 #: the driver's keys and the mode that reads each
 _MODE_KEYS = {"speed_profile": "speed", "pid": "speed", "force_profile": "force",

@@ -129,6 +129,50 @@ def _force_balance(y, tr, w, dy):
             f += force[i - 1]
         dy[i] = y[n + i]
         dy[n + i] = f * inv_m[i]
+    _held_blocks(tr, w, dy)
+
+
+@njit(cache=True, _nrt=False, forceinline=True)
+def _held_blocks(tr, w, dy):
+    """The couplings held at their slack edges (``w.held``, solver.hold_speed): each run
+    of them binds its vehicles into one rigid body, whose acceleration (m/s^2) each of
+    them takes in ``dy[n:2n]``, and the held couplings carry the forces (N, into
+    ``w.force``) that make it so: along the run from its front, each one's force is the
+    one ahead plus its front vehicle's own force (traction share less resistance and
+    brake) less that vehicle's mass times the body's acceleration. The couplings at the
+    run's two ends keep their laws' forces. The speeds of a held run are equal
+    (:func:`ltdsim.engine.kernel.slack._hold_enter` makes them so), so its positions
+    stay apart as they were."""
+    held = w.held
+    veh = tr.veh
+    inv_m = tr.inv_m
+    fcons = w.fcons
+    res = w.res
+    force = w.force
+    n = veh.shape[0]
+    j = 0
+    while j < n - 1:
+        if held[j] == 0:
+            j += 1
+            continue
+        a = j
+        while j < n - 1 and held[j] != 0:
+            j += 1
+        b = j  # vehicles a..b, joined by the held couplers a..b-1
+        f_ahead = force[a - 1] if a > 0 else 0.0
+        f_behind = force[b] if b < n - 1 else 0.0
+        m_body = 0.0
+        f_body = 0.0
+        for i in range(a, b + 1):
+            m_body += 1.0 / inv_m[i]
+            f_body += veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i]
+        acc = (f_ahead - f_behind + f_body) / m_body
+        f = f_ahead
+        for i in range(a, b):
+            f += veh[i, V_SHARE] * fcons[int(veh[i, V_CONS])] - res[i] - acc / inv_m[i]
+            force[i] = f
+        for i in range(a, b + 1):
+            dy[n + i] = acc
 
 
 @njit(cache=True, _nrt=False, forceinline=True)

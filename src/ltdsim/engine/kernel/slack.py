@@ -3,7 +3,8 @@ exerts (rather than of its internal force, which may run ahead of the force by t
 gear's relaxation lag), the exact relaxation of a gear's states over a step spent
 wholly in its slack, where they relax to constants and act on nothing, and the location
 of the first point along a step where a coupling meets or leaves its slack edge (any
-coupler model with slack; used with ``rk.EDGE_LOCATION``).
+coupler model with slack; used with ``rk.EDGE_LOCATION``), and the couplings held at
+their slack edges (``solver.hold_speed``, at the end of this module).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from ltdsim.engine.couplers import P_D0, P_F0, P_RATE, P_SLACK, WG_BACK, WG_GAP
+from ltdsim.engine.layout import N_ENERGY
 from ltdsim.physics.gears.draftgear import plate_rate, relax
 
 
@@ -175,3 +177,132 @@ def _edge_crossing(j, y, ynew, n, h, v_min, cpl):
             return b
         lo = hi
     return 2.0
+
+
+# ---------------------------------------------------------------- held slack edges
+# A preloaded gear with a rigid end (no edge_stiffness) exerts nothing in its slack and
+# its released force the instant the slack closes. A coupling pressed against its edge
+# by less than that force has no motion of its own in the exact solution: it stays at
+# the edge (the sliding mode of a discontinuous right-hand side, Filippov's), carrying
+# the force that keeps its two sides together. A time-stepping solution instead
+# touches and leaves the edge over and over, its force alternating between none and the
+# preload. With solver.hold_speed run_adaptive holds such a coupling (w.held).
+
+#: how far a coupling released from its edge into its gear is put past the edge, m:
+#: far enough that the gear's law carries it (at the edge exactly it is in its slack),
+#: too little to change any force (1e-9 m at a locked gear's 1e9 N/m is 1 N)
+HOLD_NUDGE = 1e-9
+
+
+@njit(cache=True)
+def _hold_exit(y, n, ftol, w):
+    """Release every held coupling whose force (``w.force``, N, at the state ``y``) has
+    left its range by more than ``ftol`` (N): below none, into its slack; beyond
+    ``w.hold_f``, into its gear (put :data:`HOLD_NUDGE` past the edge, every vehicle
+    behind it moved with it). (Within ``ftol`` it stays held: a force that only flickers
+    about the end of its range, as where a vehicle's resistance changes sign with its
+    speed at a standstill, would otherwise let it go and take it again at every step.)
+    Returns how many were released."""
+    held = w.held
+    force = w.force
+    out = 0
+    for j in range(n - 1):
+        s = held[j]
+        if s == 0:
+            continue
+        f = s * force[j]
+        if f < -ftol:
+            held[j] = 0
+            out += 1
+        elif f > w.hold_f[j] + ftol:
+            held[j] = 0
+            out += 1
+            for k in range(j + 1, n):
+                y[k] -= s * HOLD_NUDGE
+    return out
+
+
+@njit(cache=True)
+def _hold_enter(y0, y1, n, vc, cpl, inv_m, ez, w):
+    """Hold every coupling that may be held (``w.hold_f > 0``) and, over the step from
+    ``y0`` to ``y1``, met or left its slack edge (:func:`_regime` changed between the
+    slack and one side) with its two vehicles closing or opening slower than ``vc``
+    (m/s) at the step's end. The bodies on its two sides (a vehicle, or a run of
+    vehicles already held) take their common speed, momentum kept: a plastic touch,
+    whose kinetic energy (J) goes to the coupling's work when the energy is accounted
+    (``y1[ez + N_ENERGY + j]``; ``ez`` -1: it is not). The coupling is put exactly at
+    the edge, every vehicle behind it moved by what it lacked (less than ``vc`` times
+    the step). Changes ``y1``; returns how many were held."""
+    held = w.held
+    got = 0
+    for j in range(n - 1):
+        if held[j] != 0 or not w.hold_f[j] > 0.0:
+            continue
+        half = 0.5 * cpl[j, P_SLACK]
+        d0 = cpl[j, P_D0]
+        r0 = _regime(y0[j] - y0[j + 1] + d0, half)
+        d1 = y1[j] - y1[j + 1] + d0
+        r1 = _regime(d1, half)
+        if r0 == r1 or r0 * r1 != 0:  # (no edge met; or the whole slack crossed)
+            continue
+        if not abs(y1[n + j] - y1[n + j + 1]) < vc:
+            continue
+        s = r1 if r1 != 0 else r0
+        a = j
+        while a > 0 and held[a - 1] != 0:
+            a -= 1
+        b = j + 1
+        while b < n - 1 and held[b] != 0:
+            b += 1
+        p = 0.0
+        m = 0.0
+        e = 0.0
+        for i in range(a, b + 1):
+            mi = 1.0 / inv_m[i]
+            v = y1[n + i]
+            p += mi * v
+            m += mi
+            e += 0.5 * mi * v * v
+        v = p / m
+        for i in range(a, b + 1):
+            y1[n + i] = v
+        if ez >= 0:
+            y1[ez + N_ENERGY + j] += e - 0.5 * m * v * v
+        delta = s * half - d1
+        for k in range(j + 1, n):
+            y1[k] -= delta
+        held[j] = s
+        got += 1
+    return got
+
+
+@njit(cache=True)
+def _hold_crossing(n, ftol, w):
+    """The first point of the step (its fraction, -) at which a held coupling's force
+    left its range by more than ``ftol`` (N), by linear interpolation between its force
+    at the step's start (``w.hold_fs``) and at its end (``w.force``); 2.0 if none did."""
+    held = w.held
+    theta = 2.0
+    for j in range(n - 1):
+        s = held[j]
+        if s == 0:
+            continue
+        f1 = s * w.force[j]
+        f0 = s * w.hold_fs[j]
+        top = w.hold_f[j]
+        if f1 < -ftol and f0 > 0.0:
+            th = f0 / (f0 - f1)
+        elif f1 > top + ftol and f0 < top:
+            th = (top - f0) / (f1 - f0)
+        else:
+            continue
+        if th < theta:
+            theta = th
+    return theta
+
+
+@njit(cache=True)
+def _hold_keep(n, w):
+    """Keep the couplings' forces (``w.force``, N) as the next step's start forces."""
+    for j in range(n - 1):
+        w.hold_fs[j] = w.force[j]

@@ -28,11 +28,12 @@ from ltdsim.engine.kernel.rk import (
     step_rejected,
 )
 from ltdsim.engine.kernel.slack import (
-    _edge_crossing, _exerted_error, _relax_in_slack, _slack_throughout,
+    _edge_crossing, _exerted_error, _hold_crossing, _hold_enter, _hold_exit, _hold_keep,
+    _relax_in_slack, _slack_throughout,
 )
 from ltdsim.engine.kernel.structs import ABSURD, EVENTS_FULL, NONFINITE, OK, PW_END
 from ltdsim.engine.layout import (
-    D_BCTRL, D_BPLEN, D_BSLEN, D_BSOFF, D_MODE, D_TS, I_PIPE, MODE_SPEED,
+    D_BCTRL, D_BPLEN, D_BSLEN, D_BSOFF, D_MODE, D_TS, I_PIPE, MODE_SPEED, T_EZ,
 )
 
 
@@ -165,6 +166,13 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     ``r_start`` (when it is 0) to ``r_stop - 1``, and ``n_rec - 1`` when ``r_stop``
     reaches ``n_rec``.
 
+    With ``ad.hold_speed`` > 0 (``solver.hold_speed``) a coupling that may be held
+    (``w.hold_f``) and meets or leaves its slack edge slower than that is held there
+    after the step (:func:`_hold_enter`), and let go after the step at whose end its
+    force has left its range (:func:`_hold_exit`; a step in which it leaves the range
+    early is taken again once, to end just past that point, :func:`_hold_crossing`).
+    While held, its two sides move as one body (:func:`ltdsim.engine.kernel.rhs._held_blocks`).
+
     With the fluid brake (``w.air`` sized, see :func:`make_work`) the pneumatic states
     take their own steps under the same error control (:func:`_air_step`), as long as
     their dynamics allow, one step ahead when a mechanical step would pass the end of
@@ -225,6 +233,9 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
     fresh = True  # K[0:ny] must be (re)computed at (t, y)
     cut = False  # the pneumatic step must end at t (a command, or the start)
     h_edge = np.inf  # the step cut to end just past a slack edge, s (inf: none)
+    hold_speed = ad.hold_speed
+    hold = hold_speed > 0.0  # couplings may be held at their slack edges
+    ez = int(tr.trac[T_EZ])  # (their touches' energy goes to the couplings' work)
     if split and not air_st["started"]:
         when(tr.features.fluid, _air_start, None, t, y, tr, w)
         cut = True
@@ -250,6 +261,12 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             cut = False
         if fresh:
             rhs_split(t, ym, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
+            if hold:
+                # a coupling just held whose force is out of its range is let go at once
+                if _hold_exit(ym, n, ad.hold_ftol, w) > 0:
+                    sp["holds"] += 1
+                    rhs_split(t, ym, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
+                _hold_keep(n, w)
             _track_peaks(force, peaks, n - 1, t)
             fresh = False
         # ---- record when on a record time
@@ -359,12 +376,34 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
                         err = e
             if not (err - err == 0.0):
                 err = np.inf
+            if hold and err <= 1.0 and not at_edge and h_try > EDGE_MIN_STEP:
+                # a held coupling's force left its range inside the step: take it again,
+                # ending just past that point, once (a force that jumps there, with a
+                # neighbour's touch, is not found by interpolation: the step is cut by
+                # half at most, and the coupling let go at the end of the step taken)
+                theta = _hold_crossing(n, ad.hold_ftol, w)
+                if theta < 1.0 - EDGE_TAIL:
+                    h_edge = max(max(theta, 0.5) * h_try / (1.0 - 0.5 * EDGE_TAIL),
+                                 EDGE_MIN_STEP)
+                    sp["rejected"] += 1
+                    continue
         if err <= 1.0:
             t = t_new
+            changed = 0
+            if hold:
+                # couplings let go of their edge, and couplings that met one slowly held
+                changed = _hold_exit(ynew, n, ad.hold_ftol, w) + _hold_enter(y, ynew, n, hold_speed, cpl,
+                                                               tr.inv_m, ez, w)
+                if changed > 0:
+                    sp["holds"] += changed
+                    fresh = True  # (the state changed: the next step starts afresh)
+                else:
+                    _hold_keep(n, w)
             for q in range(ny):
                 y[q] = ynew[q]
                 K[q] = K[ns * ny + q]  # first same as last
-            _track_peaks(force, peaks, n - 1, t)
+            if changed == 0:  # (else the fresh evaluation at the next start tracks them)
+                _track_peaks(force, peaks, n - 1, t)
             h = step_accepted(sp, err, h, h_try, hit or at_edge)
             h_edge = np.inf
         else:

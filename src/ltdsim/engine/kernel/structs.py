@@ -60,7 +60,7 @@ CONTROLLER = np.dtype([("a_dem", np.float64), ("v_ref", np.float64),
 #: accepted step (scaled, 1 = at the tolerance), whether the last step was rejected
 STEPPER = np.dtype([("h", np.float64), ("accepted", np.int64), ("rejected", np.int64),
                     ("t", np.float64), ("last_error", np.float64),
-                    ("last_rejected", np.bool_)])
+                    ("last_rejected", np.bool_), ("holds", np.int64)])
 
 #: the fluid brake's own bs23 stepping in :func:`run_adaptive` (one record, in
 #: :class:`Work`): start and end of the current pneumatic step s, the next step size s,
@@ -183,6 +183,9 @@ class Adaptive(NamedTuple):
 
     out_dt: float  # time between records, s
     n_rec: int  # records of the whole run
+    hold_speed: float  # a coupling meeting its slack edge slower than this is held, m/s
+    #                    (0: none is; solver.hold_speed, kernel.slack._hold_enter)
+    hold_ftol: float  # how far a held force may pass its range in a step uncut, N
     h_max: float  # largest step, s
     air_h_max: float  # largest step of the fluid brake's pneumatic states, s
     atol: np.ndarray  # (ny,) absolute error scale per state element (units of the state)
@@ -234,6 +237,10 @@ class Work(NamedTuple):
     #                 W, and (run) their running sums (PW_* rows)
     fprev: np.ndarray  # (consists,) the traction force held over the current step, N
     bforce_on: np.ndarray  # (1,) bool: some vehicle has an air brake (its power counts)
+    held: np.ndarray  # (max(n - 1, 1),) int64: each coupling held at its slack edge, +1
+    #                   in draft, -1 in buff, 0 free (run_adaptive, solver.hold_speed)
+    hold_f: np.ndarray  # (max(n - 1, 1),) the force up to which it may be held, N (0: never)
+    hold_fs: np.ndarray  # (max(n - 1, 1),) its force at the current step's start, N
 
 
 class Outputs(NamedTuple):
@@ -343,7 +350,8 @@ def _work_shapes(n: int, ny: int, stages: int, n_consists: int, cells: int,
             "air_step": ((1,), AIR_STEPPER), "ddem": ((drives,), f8),
             "dsig": ((drives, N_DRIVE_SIGNALS), f8), "dout": ((drives, N_OUT), f8),
             "energy": ((ne,), f8), "pw": ((3, ne), f8), "fprev": ((n_consists,), f8),
-            "bforce_on": ((1,), np.bool_)}
+            "bforce_on": ((1,), np.bool_),
+            "held": ((nc,), i8), "hold_f": ((nc,), f8), "hold_fs": ((nc,), f8)}
 
 
 def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
