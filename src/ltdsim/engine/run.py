@@ -289,7 +289,7 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
               kernel.make_work(n, y.shape[0], stages, nk, low.pipe_dx_cell.size,
                                air_steps=low.adaptive and low.fluid,
                                drives=low.drive_z.size, energy=low.energy,
-                               braked=low.braked), out)
+                               braked=low.braked, hold=low.hold_speed > 0.0), out)
     if low.adaptive:
         err_atol = low.atol.copy()
         err_atol[low.gear_f1] = np.inf
@@ -304,8 +304,8 @@ def _buffers(low: Lowered, n_rec: int, keep: frozenset[str] = frozenset(RECORD_A
     else:
         grid = kernel.FixedStep(dt=low.dt, n_steps=low.n_steps, record_every=low.record_every,
                                 energy_every=low.energy_every, A=tab.A, b=tab.b, c=tab.c)
-    if low.hold_f.size:  # (the couplings that may be held at their slack edge)
-        common[3].hold_f[:low.hold_f.size] = low.hold_f
+    if low.hold_speed > 0.0:  # (the couplings that may be held at their slack edge)
+        common[3].hold_f[:] = low.hold_f
     stepper = kernel.make_stepper(low.dt)  # bs23 carry-over
     return rec, y, ctl, stepper, grid, common
 

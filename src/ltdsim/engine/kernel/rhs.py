@@ -150,13 +150,14 @@ def _held_blocks(tr, w, dy):
     res = w.res
     force = w.force
     n = veh.shape[0]
+    nh = held.shape[0]  # (0 without solver.hold_speed: no iteration)
     j = 0
-    while j < n - 1:
+    while j < nh:
         if held[j] == 0:
             j += 1
             continue
         a = j
-        while j < n - 1 and held[j] != 0:
+        while j < nh and held[j] != 0:
             j += 1
         b = j  # vehicles a..b, joined by the held couplers a..b-1
         f_ahead = force[a - 1] if a > 0 else 0.0

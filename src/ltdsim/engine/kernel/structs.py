@@ -237,10 +237,10 @@ class Work(NamedTuple):
     #                 W, and (run) their running sums (PW_* rows)
     fprev: np.ndarray  # (consists,) the traction force held over the current step, N
     bforce_on: np.ndarray  # (1,) bool: some vehicle has an air brake (its power counts)
-    held: np.ndarray  # (max(n - 1, 1),) int64: each coupling held at its slack edge, +1
+    held: np.ndarray  # (n - 1,) or (0,) without solver.hold_speed; int64: each coupling held at its slack edge, +1
     #                   in draft, -1 in buff, 0 free (run_adaptive, solver.hold_speed)
-    hold_f: np.ndarray  # (max(n - 1, 1),) the force up to which it may be held, N (0: never)
-    hold_fs: np.ndarray  # (max(n - 1, 1),) its force at the current step's start, N
+    hold_f: np.ndarray  # (as held) the force up to which it may be held, N (0: never)
+    hold_fs: np.ndarray  # (as held) its force at the current step's start, N
 
 
 class Outputs(NamedTuple):
@@ -335,11 +335,12 @@ def make_stepper(h0: float) -> np.ndarray:
 
 
 def _work_shapes(n: int, ny: int, stages: int, n_consists: int, cells: int,
-                 air_steps: bool, drives: int, energy: bool) -> dict:
+                 air_steps: bool, drives: int, energy: bool, hold: bool = False) -> dict:
     """Shape and dtype of every :class:`Work` array (arguments as :func:`make_work`):
     the one declaration that :func:`make_work` allocates and :func:`work_size` counts."""
     nc = max(n - 1, 1)
     ne = N_ENERGY + n - 1 if energy else 0
+    nh = max(n - 1, 0) if hold else 0
     f8, i8 = np.float64, np.int64
     return {"K": ((stages * ny,), f8), "ytmp": ((ny,), f8), "ynew": ((ny,), f8),
             "force": ((nc,), f8), "defl": ((nc,), f8), "res": ((n,), f8),
@@ -351,20 +352,22 @@ def _work_shapes(n: int, ny: int, stages: int, n_consists: int, cells: int,
             "dsig": ((drives, N_DRIVE_SIGNALS), f8), "dout": ((drives, N_OUT), f8),
             "energy": ((ne,), f8), "pw": ((3, ne), f8), "fprev": ((n_consists,), f8),
             "bforce_on": ((1,), np.bool_),
-            "held": ((nc,), i8), "hold_f": ((nc,), f8), "hold_fs": ((nc,), f8)}
+            "held": ((nh,), i8), "hold_f": ((nh,), f8), "hold_fs": ((nh,), f8)}
 
 
 def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
               air_steps: bool = False, drives: int = 0, energy: bool = False,
-              braked: bool = False) -> Work:
+              braked: bool = False, hold: bool = False) -> Work:
     """:class:`Work` for ``n`` vehicles, a state of ``ny`` elements, ``stages`` stage
     derivatives, ``n_consists`` locomotive consists and ``cells`` brake-pipe cells
     (fluid brake); ``air_steps``: the fluid brake's pneumatic states take their own
     steps (:func:`run_adaptive` with ``brake.model = "fluid"``); ``drives`` induction
     drives; ``energy``: the run accounts for the energy (``solver.energy``); ``braked``:
-    some vehicle has an air brake. Zeros but for: no track segment yet in ``tkey``
+    some vehicle has an air brake; ``hold``: couplings may be held at their slack
+    edges (``solver.hold_speed``; else the held arrays are empty, and the kernels'
+    loops over them run no iteration). Zeros but for: no track segment yet in ``tkey``
     (-1), the pneumatic stepper's first step 0.1 ms, ``bforce_on`` = ``braked``."""
-    shapes = _work_shapes(n, ny, stages, n_consists, cells, air_steps, drives, energy)
+    shapes = _work_shapes(n, ny, stages, n_consists, cells, air_steps, drives, energy, hold)
     w = Work(**{k: np.zeros(shape, dtype=dt) for k, (shape, dt) in shapes.items()})
     w.tkey[:] = -1
     w.air_step[0]["h"] = 1e-4
@@ -374,10 +377,11 @@ def make_work(n: int, ny: int, stages: int, n_consists: int, cells: int = 0,
 
 
 def work_size(n: int, ny: int, stages: int, n_consists: int = 1, cells: int = 0,
-              air_steps: bool = False, drives: int = 0, energy: bool = False) -> int:
+              air_steps: bool = False, drives: int = 0, energy: bool = False,
+              hold: bool = False) -> int:
     """Elements of 8 bytes that hold the :class:`Work` :func:`make_work` builds for the
     same arguments (rounded up), counted without allocating it (the memory check
     before a run)."""
-    shapes = _work_shapes(n, ny, stages, n_consists, cells, air_steps, drives, energy)
+    shapes = _work_shapes(n, ny, stages, n_consists, cells, air_steps, drives, energy, hold)
     nbytes = sum(int(np.prod(shape)) * np.dtype(dt).itemsize for shape, dt in shapes.values())
     return -(-nbytes // 8)
