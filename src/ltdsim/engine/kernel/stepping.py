@@ -263,8 +263,9 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             rhs_split(t, ym, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
             if hold:
                 # a coupling just held whose force is out of its range is let go at once
-                if _hold_exit(ym, n, ad.hold_ftol, w) > 0:
-                    sp["holds"] += 1
+                let_go = _hold_exit(ym, n, ad.hold_ftol, w)
+                if let_go > 0:
+                    sp["holds"] += let_go
                     rhs_split(t, ym, a_dem, n_ev, tr, cp, dr, ctl.events, w, K[0:ny])
                 _hold_keep(n, w)
             _track_peaks(force, peaks, n - 1, t)
@@ -392,8 +393,8 @@ def run_adaptive(y, ctl, stepper, r_start, r_stop, ad, tr, cp, dr, w, out):
             changed = 0
             if hold:
                 # couplings let go of their edge, and couplings that met one slowly held
-                changed = _hold_exit(ynew, n, ad.hold_ftol, w) + _hold_enter(y, ynew, n, hold_speed, cpl,
-                                                               tr.inv_m, ez, w)
+                changed = _hold_exit(ynew, n, ad.hold_ftol, w) \
+                    + _hold_enter(y, ynew, n, hold_speed, cpl, tr.inv_m, ez, w)
                 if changed > 0:
                     sp["holds"] += changed
                     fresh = True  # (the state changed: the next step starts afresh)
