@@ -40,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 from _results import publish
-from bench_heavy_haul import COUPLER_TOL, ENDS, HEAVY, _released_forces, per_coupler
+from bench_heavy_haul import (ENDS, HEAVY, _released_forces, envelope_width, outside,
+                              per_coupler)
 
 import ltdsim
 from ltdsim._provenance import code_hash
@@ -213,42 +214,6 @@ def cached(folder: Path, code: str, sc, simulate) -> dict:
 
 def _pct(x: float) -> str:
     return f"{x * 100:+.2f} %"
-
-
-def _scales(ref, floor):
-    """Per coupler, the scales of the tension and compression differences, N."""
-    return np.maximum(np.abs(ref[0]), floor), np.maximum(np.abs(ref[1]), floor)
-
-
-def envelope_width(ens, ref, floor) -> dict:
-    """Width of the envelope of the ensemble's peaks (a list of ``(mx, mn)``, N) per
-    coupler over the scale of ``ref``'s (at least ``floor``, N): the widest of each sign
-    (coupler counted from 1) and how many peaks spread by more than 2 %."""
-    st, sc = _scales(ref, floor)
-    mx = np.array([e[0] for e in ens])
-    mn = np.array([e[1] for e in ens])
-    wt = (mx.max(0) - mx.min(0)) / st
-    wc = (mn.max(0) - mn.min(0)) / sc
-    return {"widest_tension": float(wt.max()), "widest_tension_coupler": int(wt.argmax()) + 1,
-            "widest_compression": float(wc.max()),
-            "widest_compression_coupler": int(wc.argmax()) + 1,
-            "wider": int((wt > COUPLER_TOL).sum() + (wc > COUPLER_TOL).sum()),
-            "peaks": int(wt.size + wc.size)}
-
-
-def outside(run, ens, ref, floor) -> dict:
-    """How far the peaks of ``run`` (``(mx, mn)``, N) lie outside the ensemble's
-    envelope, per coupler over the scale of ``ref``'s: the worst (coupler counted from 1)
-    and how many of the peaks lie more than 2 % outside."""
-    st, sc = _scales(ref, floor)
-    mx = np.array([e[0] for e in ens])
-    mn = np.array([e[1] for e in ens])
-    ot = np.maximum(run[0] - mx.max(0), mx.min(0) - run[0]).clip(0.0) / st
-    oc = np.maximum(run[1] - mn.max(0), mn.min(0) - run[1]).clip(0.0) / sc
-    both = np.concatenate([ot, oc])
-    k = int(both.argmax())
-    return {"outside": int((both > COUPLER_TOL).sum()), "worst": float(both.max()),
-            "worst_coupler": k % ot.size + 1}
 
 
 if __name__ == "__main__":
