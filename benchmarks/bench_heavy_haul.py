@@ -13,12 +13,15 @@ within 2 %, the train's largest within 2 % plus what halving the fixed step move
 as long; without it the allowance is 2 %); and coupler by coupler, as issue 34 asks:
 every coupler's peak tension and compression against the fixed step's, the worst of each
 and how many are more than 2 % off (against 1e-4 s, against 5e-5 s when given, and the
-two fixed steps against each other). The trip's wall time is also given in hand-kernel
-seconds: over the median wall time of the hand-written kernel of
-benchmarks/reference_kernel.py on the study's 270 s case, run before and after the trip
-in the same process (issue 34's unit, so that the machine's speed cancels).
-``--make-fixed`` runs that one trip, writes its file and stops, so that both can run
-side by side on two cores. Prints a table and
+two fixed steps against each other; with the trip at 2.5e-5 s too, ``--fixed-quarter``,
+also against that step and against the three fixed steps' range). A trip shortened with
+``--t-end`` is compared with fixed-step runs of the same length (``--make-fixed ...
+--t-end T`` writes them, named ``..._to_<T>``; the results go to files ending in
+``_to_<T>``). The trip's wall time is also given in hand-kernel seconds: over the
+median wall time of the hand-written kernel of benchmarks/reference_kernel.py on the
+study's 270 s case, run before and after the trip in the same process (issue 34's unit,
+so that the machine's speed cancels). ``--make-fixed`` runs that one trip, writes its
+file and stops, so that both can run side by side on two cores. Prints a table and
 writes it to benchmarks/results/bench_heavy_haul.md and .json, and the trip's overview
 figure to benchmarks/results/heavy_haul_trip.png.
 
@@ -37,10 +40,11 @@ determined to 2 %, and what can be asked of a solver there is a peak inside that
 
 Usage: python benchmarks/bench_heavy_haul.py [--window 10] [--repeats 3] [--t-end 10800]
                                              [--fixed F.npz] [--fixed-half H.npz]
+                                             [--fixed-quarter Q.npz]
                                              [--end rigid|damped|elastic]
                                              [--speed-atol 1e-5]
-       python benchmarks/bench_heavy_haul.py --make-fixed [1e-4 | 5e-5] [--end ...]
-                                             [--shift T]
+       python benchmarks/bench_heavy_haul.py --make-fixed [1e-4 | 5e-5 | 2.5e-5]
+                                             [--end ...] [--shift T] [--t-end T]
 """
 
 from __future__ import annotations
@@ -98,14 +102,20 @@ def on_fixed_step(sc, dt: float, **overrides):
         if overrides else out
 
 
-def fixed_path(dt: float, end: str, shift: float | None = None) -> Path:
+#: the fixed steps ``--make-fixed`` runs, s, each half the one before (its name in files)
+FIXED_STEPS = {1e-4: "1e-4", 5e-5: "5e-5", 2.5e-5: "2.5e-5"}
+
+
+def fixed_path(dt: float, end: str, shift: float | None = None,
+               t_end: float | None = None) -> Path:
     """Where ``--make-fixed`` keeps the trip's peaks under ode3 at ``dt`` (s) with the
-    end of the slack ``end`` (a key of :data:`ENDS`), and with the driver's speed-profile
-    point at ``shift`` s moved by :data:`SHIFT` (an envelope member, ``--shift``)."""
-    step = {1e-4: "1e-4", 5e-5: "5e-5"}[dt]
-    return Path(f"/tmp/ltdsim_heavy_trip_fixed_ode3_{step}"
+    end of the slack ``end`` (a key of :data:`ENDS`), with the driver's speed-profile
+    point at ``shift`` s moved by :data:`SHIFT` (an envelope member, ``--shift``), and
+    over its first ``t_end`` s only (``--t-end``; None: the whole trip)."""
+    return Path(f"/tmp/ltdsim_heavy_trip_fixed_ode3_{FIXED_STEPS[dt]}"
                 + ("" if end == "rigid" else f"_{end}")
-                + ("" if shift is None else f"_shift_{shift:g}") + ".npz")
+                + ("" if shift is None else f"_shift_{shift:g}")
+                + ("" if t_end is None else f"_to_{t_end:g}") + ".npz")
 
 
 #: how far ``--shift`` moves a point of the driver's speed profile, s: a millisecond,
@@ -154,10 +164,13 @@ def main(argv=None) -> dict:
                          "default by --end, see fixed_path)")
     ap.add_argument("--fixed-half", type=Path, default=None,
                     help="the same under ode3 at 5e-5 s (.npz)")
+    ap.add_argument("--fixed-quarter", type=Path, default=None,
+                    help="the same under ode3 at 2.5e-5 s (.npz)")
     ap.add_argument("--make-fixed", nargs="?", type=float, const=1e-4, default=None,
-                    choices=(1e-4, 5e-5), metavar="DT",
-                    help="run the trip with ode3 at DT s (1e-4, the default, or 5e-5), "
-                         "write --fixed or --fixed-half and stop")
+                    choices=tuple(FIXED_STEPS), metavar="DT",
+                    help="run the trip (its first --t-end s when given) with ode3 at DT "
+                         "s (1e-4, the default, 5e-5 or 2.5e-5), write its peaks (see "
+                         "fixed_path) and stop")
     ap.add_argument("--shift", type=float, default=None, metavar="T",
                     help="with --make-fixed: move the driver's speed-profile point at T s "
                          "by 1 ms (an envelope member of the fixed-step trip, see SHIFT)")
@@ -172,23 +185,25 @@ def main(argv=None) -> dict:
         ap.error("--hold-speed must lie within 0 and 0.1 m/s")
     if not 1.0 <= args.tighter <= 1e3:
         ap.error("--tighter must lie within 1 and 1000")
-    args.fixed = args.fixed or fixed_path(1e-4, args.end)
-    args.fixed_half = args.fixed_half or fixed_path(5e-5, args.end)
+    # (a shortened trip is compared with fixed-step runs of the same length)
+    args.fixed = args.fixed or fixed_path(1e-4, args.end, t_end=args.t_end)
+    args.fixed_half = args.fixed_half or fixed_path(5e-5, args.end, t_end=args.t_end)
+    args.fixed_quarter = args.fixed_quarter or fixed_path(2.5e-5, args.end,
+                                                          t_end=args.t_end)
     # (the results of another end or speed tolerance go to files of their own)
     name = "bench_heavy_haul" + ("" if args.end == "rigid" else f"_{args.end}") \
         + ("" if args.speed_atol is None else f"_speed_atol_{args.speed_atol:g}") \
         + ("" if args.hold_speed is None else f"_hold_{args.hold_speed:g}") \
-        + ("" if args.tighter == 1.0 else f"_tighter_{args.tighter:g}")
+        + ("" if args.tighter == 1.0 else f"_tighter_{args.tighter:g}") \
+        + ("" if not args.t_end else f"_to_{args.t_end:g}")
 
     sc = ltdsim.load_scenario(HEAVY).with_overrides(ENDS[args.end])
     if args.t_end:
         sc = sc.with_overrides({"solver.t_end": args.t_end})
     if args.make_fixed is not None:
-        if args.shift is not None:
-            return make_fixed(shifted(sc, args.shift), args.make_fixed,
-                              fixed_path(args.make_fixed, args.end, args.shift))
-        return make_fixed(sc, args.make_fixed,
-                          args.fixed if args.make_fixed == 1e-4 else args.fixed_half)
+        return make_fixed(sc if args.shift is None else shifted(sc, args.shift),
+                          args.make_fixed,
+                          fixed_path(args.make_fixed, args.end, args.shift, args.t_end))
     n = sc.n_vehicles
     t_trip = sc.solver.n_steps * sc.solver.dt
 
@@ -263,9 +278,12 @@ def main(argv=None) -> dict:
         ("brake commands issued; speed at the end", f"{ds.attrs['brake_commands']}; {v[-1]:.3f} m/s"),
     ]
     accuracy = None
-    fixed_ok = args.fixed.is_file() and not args.t_end and whole_trip(args.fixed, t_trip)
+    fixed_ok = args.fixed.is_file() and whole_trip(args.fixed, t_trip)
     half = (args.fixed_half if fixed_ok and args.fixed_half.is_file()
             and whole_trip(args.fixed_half, t_trip) else None)
+    quarter = (args.fixed_quarter if half is not None and args.fixed_quarter.is_file()
+               and whole_trip(args.fixed_quarter, t_trip) else None)
+    span = "whole trip" if not args.t_end else f"first {t_trip:g} s"
     if fixed_ok:
         z = np.load(args.fixed)
         mx, mn = ds.max_coupler_force.values, ds.min_coupler_force.values
@@ -286,12 +304,12 @@ def main(argv=None) -> dict:
         allowed = {k: 0.02 + (spread[k] if k.startswith("top_") else 0.0) for k in accuracy}
         ok = all(abs(accuracy[k]) <= allowed[k] for k in accuracy)
         rows += [
-            ("fixed-step ode3, dt 1e-4, whole trip: largest tension / compression",
+            (f"fixed-step ode3, dt 1e-4, {span}: largest tension / compression",
              f"{z['mx'].max() / 1e3:.0f} kN / {z['mn'].min() / 1e3:.0f} kN"),
         ]
         if half is not None:
             rows += [
-                ("fixed-step ode3, dt 5e-5, whole trip: largest tension / compression",
+                (f"fixed-step ode3, dt 5e-5, {span}: largest tension / compression",
                  f"{h['mx'].max() / 1e3:.0f} kN / {h['mn'].min() / 1e3:.0f} kN"),
                 ("halving the fixed step moves the averaged peaks (tension / compression)",
                  f"{spread['mean_tension'] * 100:+.2f} % / "
@@ -342,6 +360,25 @@ def main(argv=None) -> dict:
             rows.append(("bs23 against ode3 at 5e-5 s, every coupler: " + PER_COUPLER,
                          per_coupler_text(per_half)))
             accuracy.update(per_coupler_fixed_spread=fine, per_coupler_vs_half=per_half)
+        if quarter is not None:
+            q = np.load(quarter)
+            fine_q = per_coupler(h["mx"], h["mn"], q["mx"], q["mn"], floor)
+            rows.append(("ode3 at 5e-5 s against 2.5e-5 s (the fixed step's spread on "
+                         "halving again), every coupler: " + PER_COUPLER,
+                         per_coupler_text(fine_q)))
+            per_q = per_coupler(mx, mn, q["mx"], q["mn"], floor)
+            rows.append(("bs23 against ode3 at 2.5e-5 s, every coupler: " + PER_COUPLER,
+                         per_coupler_text(per_q)))
+            # (the three fixed steps' range: where they disagree, a peak inside it is as
+            # good as the fixed step can tell)
+            fam = [(z["mx"], z["mn"]), (h["mx"], h["mn"]), (q["mx"], q["mn"])]
+            out_f = outside((mx, mn), fam, (q["mx"], q["mn"]), floor)
+            rows.append(("bs23 against the range of ode3 at 1e-4, 5e-5 and 2.5e-5 s: "
+                         "peaks more than 2 % outside it (worst)",
+                         f"{out_f['outside']} of {per_q['peaks']} "
+                         f"({out_f['worst'] * 100:.1f} %, coupler {out_f['worst_coupler']})"))
+            accuracy.update(per_coupler_halving_again=fine_q, per_coupler_vs_quarter=per_q,
+                            outside_fixed_steps=out_f)
         rows += [
             ("bs23 against ode3 at 1e-4 s: peak tension / compression averaged over the "
              "train", f"{accuracy['mean_tension'] * 100:+.2f} % / "
@@ -354,10 +391,12 @@ def main(argv=None) -> dict:
              + ("" if half is not None else ", not measured") + ")"),
             ("accuracy checks hold", "yes" if ok else "NO"),
         ]
-        finest = accuracy.get("per_coupler_vs_half", per)
+        finest = accuracy.get("per_coupler_vs_quarter",
+                              accuracy.get("per_coupler_vs_half", per))
         every = finest["peaks_off"] == 0
         rows.append(("every coupler's peaks within 2 % of the finest fixed step ("
-                     + ("5e-5" if half is not None else "1e-4") + " s)",
+                     + ("2.5e-5" if quarter is not None else
+                        "5e-5" if half is not None else "1e-4") + " s)",
                      "yes" if every else "NO"))
         if "outside_envelope" in accuracy:
             inside = accuracy["outside_envelope"]["outside"] == 0
@@ -492,7 +531,7 @@ def envelope_members(end: str) -> list[Path]:
 def member_shift(path: Path) -> float:
     """The time of the driver's profile point (s) that envelope member ``path`` moved
     (from its name, :func:`fixed_path`)."""
-    return float(path.stem.rsplit("_", 1)[1])
+    return float(path.stem.split("_shift_", 1)[1].split("_", 1)[0])
 
 
 def whole_trip(path: Path, t_trip: float) -> bool:
