@@ -38,6 +38,11 @@ each an hour of CPU), the couplers' peaks are also compared with the envelope of
 runs and the fixed-step trip: a peak that a millisecond moves by more than 2 % is not
 determined to 2 %, and what can be asked of a solver there is a peak inside that spread.
 
+With the trip under bs23 at the tolerances / 1000 and the speeds held to 1e-7 m/s at
+hand (``--make-tight [--t-end T]``, :data:`TIGHT`), the fixed-step trips and this run are
+also compared with it coupler by coupler: a check of whether the fixed steps that agree
+with each other have converged.
+
 Usage: python benchmarks/bench_heavy_haul.py [--window 10] [--repeats 3] [--t-end 10800]
                                              [--fixed F.npz] [--fixed-half H.npz]
                                              [--fixed-quarter Q.npz]
@@ -45,6 +50,7 @@ Usage: python benchmarks/bench_heavy_haul.py [--window 10] [--repeats 3] [--t-en
                                              [--speed-atol 1e-5]
        python benchmarks/bench_heavy_haul.py --make-fixed [1e-4 | 5e-5 | 2.5e-5]
                                              [--end ...] [--shift T] [--t-end T]
+       python benchmarks/bench_heavy_haul.py --make-tight [--end ...] [--t-end T]
 """
 
 from __future__ import annotations
@@ -118,6 +124,30 @@ def fixed_path(dt: float, end: str, shift: float | None = None,
                 + ("" if t_end is None else f"_to_{t_end:g}") + ".npz")
 
 
+#: the tight adaptive reference (``--make-tight``): bs23 at the scenario's rtol and atol
+#: divided by the first, with the speeds held to the second, m/s. On the heavy-haul
+#: emergency (damped end) it lands closer to ode3 at 6.25e-6 s than ode3 at 5e-5 s and
+#: 2.5e-5 s do, at a fraction of their cost (docs/heavy-haul.md, "Which reference has
+#: converged")
+TIGHT = (1000.0, 1e-7)
+
+
+def tight_path(end: str, t_end: float | None = None) -> Path:
+    """Where ``--make-tight`` keeps the trip's peaks under bs23 at :data:`TIGHT` with the
+    end of the slack ``end``, over its first ``t_end`` s only (None: the whole trip)."""
+    return Path(f"/tmp/ltdsim_heavy_trip_tight_bs23"
+                + ("" if end == "rigid" else f"_{end}")
+                + ("" if t_end is None else f"_to_{t_end:g}") + ".npz")
+
+
+def tightened(sc):
+    """Scenario ``sc`` under bs23 at :data:`TIGHT`."""
+    return sc.with_overrides({"solver.method": "bs23",
+                              "solver.rtol": sc.solver.rtol / TIGHT[0],
+                              "solver.atol": sc.solver.atol / TIGHT[0],
+                              "solver.speed_atol": TIGHT[1]})
+
+
 #: how far ``--shift`` moves a point of the driver's speed profile, s: a millisecond,
 #: far below what a driver or a cab signal resolves, so the runs it makes are the same
 #: trip as far as anyone could tell, and their spread is how well a peak is determined
@@ -171,12 +201,21 @@ def main(argv=None) -> dict:
                     help="run the trip (its first --t-end s when given) with ode3 at DT "
                          "s (1e-4, the default, 5e-5 or 2.5e-5), write its peaks (see "
                          "fixed_path) and stop")
+    ap.add_argument("--make-tight", action="store_true",
+                    help="run the trip (its first --t-end s when given) with bs23 at the "
+                         f"tolerances / {TIGHT[0]:g} and speed_atol {TIGHT[1]:g} m/s, write "
+                         "its peaks (see tight_path) and stop")
     ap.add_argument("--shift", type=float, default=None, metavar="T",
                     help="with --make-fixed: move the driver's speed-profile point at T s "
                          "by 1 ms (an envelope member of the fixed-step trip, see SHIFT)")
     args = ap.parse_args(argv)
     if args.shift is not None and args.make_fixed is None:
         ap.error("--shift makes an envelope member: give it with --make-fixed")
+    if args.make_tight and (args.make_fixed is not None or args.shift is not None
+                            or args.speed_atol is not None or args.hold_speed is not None
+                            or args.tighter != 1.0):
+        ap.error("--make-tight runs bs23 at its own tolerances (TIGHT): leave out "
+                 "--make-fixed, --shift, --speed-atol, --hold-speed and --tighter")
     if args.end == "damped" and args.speed_atol is None:  # as the case damped-end
         args.speed_atol = DAMPED_CASE["solver.speed_atol"]
     if args.speed_atol is not None and not 0.0 < args.speed_atol <= 1.0:
@@ -200,6 +239,9 @@ def main(argv=None) -> dict:
     sc = ltdsim.load_scenario(HEAVY).with_overrides(ENDS[args.end])
     if args.t_end:
         sc = sc.with_overrides({"solver.t_end": args.t_end})
+    if args.make_tight:
+        return make_reference(tightened(sc), f"bs23 at the tolerances / {TIGHT[0]:g}, "
+                              f"speed_atol {TIGHT[1]:g} m/s", tight_path(args.end, args.t_end))
     if args.make_fixed is not None:
         return make_fixed(sc if args.shift is None else shifted(sc, args.shift),
                           args.make_fixed,
@@ -237,7 +279,8 @@ def main(argv=None) -> dict:
     hand += [_hand_wall(study) for _ in range(HAND_ROUNDS)]
     # (the run's peaks, for a closer look at the couplers off)
     np.savez(Path("/tmp") / f"ltdsim_{name}_peaks.npz", mx=ds.max_coupler_force.values,
-             mn=ds.min_coupler_force.values)
+             mn=ds.min_coupler_force.values, t_mx=ds.time_max_coupler_force.values,
+             t_mn=ds.time_min_coupler_force.values)
     hand_s = statistics.median(hand)
     steps, rejected = ds.attrs["steps"], ds.attrs["rejected_steps"]
     v = ds.velocity.values[:, 0]
@@ -405,6 +448,27 @@ def main(argv=None) -> dict:
             accuracy["every_coupler_in_envelope"] = inside
         accuracy.update(ok=ok, every_coupler_ok=every, halving_spread=spread,
                         allowed=allowed)
+    vs_tight = None
+    tight = tight_path(args.end, args.t_end)
+    if tight.is_file() and whole_trip(tight, t_trip):
+        # the tight adaptive reference (--make-tight): what the fixed steps and this run
+        # give against it, coupler by coupler
+        zt = np.load(tight)
+        floor = _released_forces(sc)
+        ref_t = (zt["mx"], zt["mn"])
+        vs_tight = {"bs23": per_coupler(ds.max_coupler_force.values,
+                                        ds.min_coupler_force.values, *ref_t, floor)}
+        for dt, f in ((1e-4, args.fixed), (5e-5, args.fixed_half),
+                      (2.5e-5, args.fixed_quarter)):
+            if f.is_file() and whole_trip(f, t_trip):
+                zf = np.load(f)
+                vs_tight[FIXED_STEPS[dt]] = per_coupler(zf["mx"], zf["mn"], *ref_t, floor)
+                rows.append((f"ode3 at {dt:g} s against the tight reference (bs23 at the "
+                             f"tolerances / {TIGHT[0]:g}, speed_atol {TIGHT[1]:g} m/s), "
+                             f"every coupler: {PER_COUPLER}",
+                             per_coupler_text(vs_tight[FIXED_STEPS[dt]])))
+        rows.append(("bs23 against the tight reference, every coupler: " + PER_COUPLER,
+                     per_coupler_text(vs_tight["bs23"])))
     from ltdsim.viz.plotting import save_overview
 
     if name == "bench_heavy_haul":
@@ -412,6 +476,7 @@ def main(argv=None) -> dict:
     result = {"vehicles": n, "trip_s": t_trip,
               "bs23_wall_s": wall, "bs23_cpu_s": cpu, "bs23_steps": steps,
               "bs23_rejected": rejected, "accuracy_vs_fixed": accuracy,
+              "accuracy_vs_tight": vs_tight,
               "fixed_vehicle_steps_per_s": rates, "fixed_trip_estimate_s": fixed_trip,
               "hand_kernel_s": hand_s, "hand_kernel_runs_s": hand,
               "trip_hand_kernel_seconds": wall / hand_s,
@@ -546,23 +611,30 @@ def whole_trip(path: Path, t_trip: float) -> bool:
 
 
 def make_fixed(sc, dt: float, path: Path) -> dict:
-    """Run scenario ``sc`` with fixed-step ode3 at ``dt`` (s) and write the couplers'
-    peak tensions ``mx`` and compressions ``mn`` (N) to ``path`` (.npz)."""
-    print(f"the trip with fixed-step ode3 at {dt:g} s (to {path}) ...", flush=True)
-    fixed = on_fixed_step(sc, dt)
-    t_trip = fixed.solver.n_steps * fixed.solver.dt
+    """Run scenario ``sc`` with fixed-step ode3 at ``dt`` (s) and write its peaks to
+    ``path`` (:func:`make_reference`)."""
+    return make_reference(on_fixed_step(sc, dt), f"ode3, {dt:g} s", path) | {"dt": dt}
+
+
+def make_reference(ref_sc, what: str, path: Path) -> dict:
+    """Run scenario ``ref_sc`` (a reference run, ``what`` in words) and write the couplers'
+    peak tensions ``mx`` and compressions ``mn`` (N), their times ``t_mx``, ``t_mn`` (s)
+    and the run's length ``t_end`` (s) to ``path`` (.npz)."""
+    print(f"the trip with {what} (to {path}) ...", flush=True)
+    t_trip = ref_sc.solver.n_steps * ref_sc.solver.dt
     # (a live bar on a terminal, a line a minute in a log: these runs take an hour)
     with Display(Console(stderr=True), interval=60.0) as shown:
-        update = shown.bar(f"heavy-haul trip (ode3, {dt:g} s)", t_trip, "s simulated")
+        update = shown.bar(f"heavy-haul trip ({what})", t_trip, "s simulated")
         c0 = time.process_time()
-        ref = ltdsim.simulate(fixed, progress=lambda t, _: update(t))
+        ref = ltdsim.simulate(ref_sc, progress=lambda t, _: update(t))
         cpu = time.process_time() - c0
     np.savez(path, mx=ref.max_coupler_force.values, mn=ref.min_coupler_force.values,
+             t_mx=ref.time_max_coupler_force.values, t_mn=ref.time_min_coupler_force.values,
              t_end=t_trip)
     print(f"written: {path}, {cpu:.0f} s of CPU; largest tension "
           f"{ref.max_coupler_force.values.max() / 1e3:.1f} kN, compression "
           f"{ref.min_coupler_force.values.min() / 1e3:.1f} kN", flush=True)
-    return {"dt": dt, "cpu_s": cpu, "path": str(path)}
+    return {"cpu_s": cpu, "path": str(path)}
 
 
 if __name__ == "__main__":

@@ -24,11 +24,17 @@ lightly damped as open LTD codes set it (``bench_heavy_haul.ENDS``):
 
 Differences are in % of the reference's peak or the gear's released force, whichever is
 larger (as benchmarks/bench_heavy_haul.py counts them). Prints a table and writes it to
-benchmarks/results/bench_peak_sensitivity.md and .json.
+benchmarks/results/bench_peak_sensitivity.md and .json (a run of only some windows or
+ends, or with ``--finest``, to ``bench_peak_sensitivity_<windows>_<ends>[_finest_<DT>]``).
+
+With ``--finest DT`` the fixed step is halved on down to DT (``--dt`` / 4 to / 32),
+every fixed step and bs23 run is also compared with the finest, and bs23 runs once more
+at the tolerances / 1000 with the speeds held to 1e-7 m/s (:data:`TIGHT`): whether the
+fixed steps that agree with each other have converged, and what converges.
 
 Usage: python benchmarks/bench_peak_sensitivity.py [--dt 5e-5] [--members 4]
            [--delta 1e-4] [--windows emergency cruise]
-           [--ends rigid damped elastic]
+           [--ends rigid damped elastic] [--finest 6.25e-6]
 """
 
 from __future__ import annotations
@@ -64,6 +70,10 @@ TIGHTER = (1.0, 10.0, 100.0)
 #: couplers held at their slack edges chatter and every touch is then resolved (20 s of
 #: cruise took 3.4 million steps at 1e-6 m/s)
 SPEED_ATOLS = (1e-5, 1e-6)
+#: with ``--finest``: bs23 at the scenario's tolerances divided by this, with the speeds
+#: held to ``TIGHT[1]`` m/s (far tighter than any practical run: whether bs23 converges
+#: to the finest fixed step)
+TIGHT = (1000.0, 1e-7)
 
 
 def speed_atols(end: str) -> tuple[float, ...]:
@@ -81,6 +91,11 @@ def main(argv=None) -> dict:
                          "bs23's absolute speed tolerance)")
     ap.add_argument("--windows", nargs="+", choices=tuple(WINDOWS), default=list(WINDOWS))
     ap.add_argument("--ends", nargs="+", choices=tuple(ENDS), default=list(ENDS))
+    ap.add_argument("--finest", type=float, default=None, metavar="DT",
+                    help="also halve the fixed step from dt / 2 down to DT s (a power-of-"
+                         "two fraction of --dt), compare every fixed step and bs23 run "
+                         "with the finest, and run bs23 at the tolerances / "
+                         f"{TIGHT[0]:g} with speed_atol {TIGHT[1]:g} m/s")
     ap.add_argument("--out", type=Path, default=HERE / "results")
     ap.add_argument("--cache", type=Path, default=CACHE,
                     help="folder of the runs' peaks, kept so that a stopped benchmark "
@@ -91,6 +106,12 @@ def main(argv=None) -> dict:
         ap.error("--members must be at least 1")
     if not 5e-6 <= args.dt <= 1e-4:
         ap.error("--dt must lie within 5e-6 to 1e-4 s (a converged fixed step)")
+    ladder = [args.dt / 2]  # (the fixed steps below --dt, each half the one before)
+    if args.finest is not None:
+        halvings = np.log2(args.dt / args.finest)
+        if not (2.0 <= halvings <= 5.0 and abs(halvings - round(halvings)) < 1e-9):
+            ap.error("--finest must be --dt / 4, / 8, / 16 or / 32 s")
+        ladder = [args.dt / 2 ** k for k in range(1, round(halvings) + 1)]
 
     base = ltdsim.load_scenario(HEAVY)
     delta = args.delta if args.delta is not None else 0.1 * base.solver.atol * SPEED_SCALE
@@ -100,9 +121,11 @@ def main(argv=None) -> dict:
     members = [round((k + 0.5) * n / args.members) for k in range(args.members)]
     floor = _released_forces(base)
     # (the fixed-step runs dominate: about 0.3 us per vehicle-step on this machine)
-    steps = sum(WINDOWS[w][1]["solver.t_end"] / args.dt * (1 + 2 + args.members)
+    steps = sum(WINDOWS[w][1]["solver.t_end"] / args.dt
+                * (1 + args.members + sum(args.dt / d for d in ladder))
                 for w in args.windows) * len(args.ends)
-    per_pair = {e: 2 + args.members + len(TIGHTER) + len(speed_atols(e)) for e in args.ends}
+    per_pair = {e: 1 + len(ladder) + args.members + len(TIGHTER) + len(speed_atols(e))
+                + (args.finest is not None) for e in args.ends}
     print(f"{len(args.windows) * len(args.ends)} window x end pairs, "
           f"{sum(per_pair.values()) * len(args.windows)} runs; "
           f"estimate {steps * n * 0.3e-6 / 60:.0f} min", flush=True)
@@ -135,8 +158,9 @@ def main(argv=None) -> dict:
 
             fixed = sc.with_overrides({"solver.method": "ode3", "solver.dt": args.dt})
             ref = run(f"ode3 {args.dt:g} s", fixed)
-            half = run(f"ode3 {args.dt / 2:g} s",
-                       fixed.with_overrides({"solver.dt": args.dt / 2}))
+            finer = [run(f"ode3 {d:g} s", fixed.with_overrides({"solver.dt": d}))
+                     for d in ladder]
+            half, finest = finer[0], finer[-1]
             ens = [ref]
             for m in members:
                 v = np.full(n, sc.initial.speed)
@@ -152,6 +176,15 @@ def main(argv=None) -> dict:
                 (f"{label}: ode3 {args.dt / 2:g} s against {args.dt:g} s",
                  f"worst {_pct(conv['worst_tension'])} / {_pct(conv['worst_compression'])}; "
                  f"{conv['peaks_off']} of {conv['peaks']} peaks > 2 % off"),
+            ]
+            if args.finest is not None:  # (every coarser fixed step against the finest)
+                entry["fixed_vs_finest"] = {}
+                for d, p in zip([args.dt] + ladder[:-1], [ref] + finer[:-1]):
+                    c = per_coupler(*p, *finest, floor)
+                    entry["fixed_vs_finest"][f"{d:g}"] = c
+                    rows.append((f"{label}: ode3 {d:g} s against {ladder[-1]:g} s "
+                                 "(the finest)", _per_text(c)))
+            rows += [
                 (f"{label}: envelope of {len(ens)} runs (+{delta * 1e3:g} mm/s on one "
                  "vehicle each), widest tension / compression",
                  f"{width['widest_tension'] * 100:.1f} % (coupler "
@@ -167,6 +200,12 @@ def main(argv=None) -> dict:
             bs23 += [(f"speed_atol_{sa:g}", f"bs23 speed_atol {sa:g} m/s",
                       sc.with_overrides({"solver.speed_atol": sa}))
                      for sa in speed_atols(end)]
+            if args.finest is not None:
+                bs23.append(("tight", f"bs23 tolerances / {TIGHT[0]:g}, speed_atol "
+                             f"{TIGHT[1]:g} m/s",
+                             sc.with_overrides({"solver.rtol": sc.solver.rtol / TIGHT[0],
+                                                "solver.atol": sc.solver.atol / TIGHT[0],
+                                                "solver.speed_atol": TIGHT[1]})))
             for key, what, s in bs23:
                 b, info = run(what, s, True)
                 vs_ref = per_coupler(*b, *ref, floor)
@@ -180,8 +219,18 @@ def main(argv=None) -> dict:
                              f"{vs_ref['peaks_off']} peaks > 2 % off the reference; "
                              f"{out['outside']} > 2 % outside the envelope (worst "
                              f"{out['worst'] * 100:.1f} %, coupler {out['worst_coupler']})"))
+                if args.finest is not None:
+                    c = per_coupler(*b, *finest, floor)
+                    entry["bs23"][key]["vs_finest"] = c
+                    rows.append((f"{label}: that bs23 run against ode3 {ladder[-1]:g} s "
+                                 "(the finest)", _per_text(c)))
             result["pairs"][f"{window}/{end}"] = entry
-    publish(args.out, "bench_peak_sensitivity",
+    # (a run of part of the windows and ends, or with --finest, writes its own file)
+    name = "bench_peak_sensitivity" \
+        + ("" if args.windows == list(WINDOWS) else "_" + "_".join(args.windows)) \
+        + ("" if args.ends == list(ENDS) else "_" + "_".join(args.ends)) \
+        + ("" if args.finest is None else f"_finest_{args.finest:g}")
+    publish(args.out, name,
             f"Single-coupler peaks of the heavy-haul train and their sensitivity, {{stamp}}; "
             f"reference ode3 at {args.dt:g} s, ensemble members raise vehicle "
             + ", ".join(str(m + 1) for m in members) + f" by {delta * 1e3:g} mm/s",
@@ -214,6 +263,13 @@ def cached(folder: Path, code: str, sc, simulate) -> dict:
 
 def _pct(x: float) -> str:
     return f"{x * 100:+.2f} %"
+
+
+def _per_text(c: dict) -> str:
+    """One cell of :func:`bench_heavy_haul.per_coupler`'s result."""
+    return (f"worst {_pct(c['worst_tension'])} (coupler {c['worst_tension_coupler']}) / "
+            f"{_pct(c['worst_compression'])} (coupler {c['worst_compression_coupler']}); "
+            f"{c['peaks_off']} of {c['peaks']} peaks > 2 % off")
 
 
 if __name__ == "__main__":
