@@ -45,7 +45,10 @@ MIN_STEP = 1e-12
 #: coupler's peak from +19 % to +3.8 % of a converged fixed step at 34x the attempted
 #: steps (19x the CPU time, about the fixed step's at 1e-4 s, which is within 3.6 %),
 #: and within 1 % only at 1250x (every touch located); measured 2026-12-03
-#: (docs/heavy-haul.md, "Locating the slack edges"). True compiles it in.
+#: (docs/heavy-haul.md, "Locating the slack edges"). With a damped end of the slack and
+#: EDGE_SPEED raised to 100 (1 mm/s at speed_atol 1e-5) it is cheap, 7 % more steps
+#: over the trip's first hour, but leaves the couplers' peaks as scattered as without
+#: it (measured 2026-12-07, same page). True compiles it in.
 EDGE_LOCATION = False
 #: a step may go on past the first such point by at most this share of its length; a
 #: longer one is taken again, cut to end half this share past the point, so that the
