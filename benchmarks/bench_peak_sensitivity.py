@@ -29,8 +29,8 @@ ends, or with ``--finest``, to ``bench_peak_sensitivity_<windows>_<ends>[_finest
 
 With ``--finest DT`` the fixed step is halved on down to DT (``--dt`` / 4 to / 32),
 every fixed step and bs23 run is also compared with the finest, and bs23 runs once more
-at the tolerances / 1000 with the speeds held to 1e-7 m/s (:data:`TIGHT`): whether the
-fixed steps that agree with each other have converged, and what converges.
+at the tolerances / 1000 with the speeds held to 1e-7 m/s (``bench_heavy_haul.TIGHT``):
+whether the fixed steps that agree with each other have converged, and what converges.
 
 Usage: python benchmarks/bench_peak_sensitivity.py [--dt 5e-5] [--members 4]
            [--delta 1e-4] [--windows emergency cruise]
@@ -46,8 +46,8 @@ from pathlib import Path
 
 import numpy as np
 from _results import publish
-from bench_heavy_haul import (ENDS, HEAVY, _released_forces, envelope_width, outside,
-                              per_coupler)
+from bench_heavy_haul import (ENDS, HEAVY, TIGHT, _released_forces, envelope_width,
+                              outside, per_coupler, per_coupler_text, tightened)
 
 import ltdsim
 from ltdsim._provenance import code_hash
@@ -70,10 +70,6 @@ TIGHTER = (1.0, 10.0, 100.0)
 #: couplers held at their slack edges chatter and every touch is then resolved (20 s of
 #: cruise took 3.4 million steps at 1e-6 m/s)
 SPEED_ATOLS = (1e-5, 1e-6)
-#: with ``--finest``: bs23 at the scenario's tolerances divided by this, with the speeds
-#: held to ``TIGHT[1]`` m/s (far tighter than any practical run: whether bs23 converges
-#: to the finest fixed step)
-TIGHT = (1000.0, 1e-7)
 
 
 def speed_atols(end: str) -> tuple[float, ...]:
@@ -183,7 +179,7 @@ def main(argv=None) -> dict:
                     c = per_coupler(*p, *finest, floor)
                     entry["fixed_vs_finest"][f"{d:g}"] = c
                     rows.append((f"{label}: ode3 {d:g} s against {ladder[-1]:g} s "
-                                 "(the finest)", _per_text(c)))
+                                 "(the finest)", per_coupler_text(c)))
             rows += [
                 (f"{label}: envelope of {len(ens)} runs (+{delta * 1e3:g} mm/s on one "
                  "vehicle each), widest tension / compression",
@@ -200,12 +196,9 @@ def main(argv=None) -> dict:
             bs23 += [(f"speed_atol_{sa:g}", f"bs23 speed_atol {sa:g} m/s",
                       sc.with_overrides({"solver.speed_atol": sa}))
                      for sa in speed_atols(end)]
-            if args.finest is not None:
+            if args.finest is not None:  # (far tighter than a trip can afford)
                 bs23.append(("tight", f"bs23 tolerances / {TIGHT[0]:g}, speed_atol "
-                             f"{TIGHT[1]:g} m/s",
-                             sc.with_overrides({"solver.rtol": sc.solver.rtol / TIGHT[0],
-                                                "solver.atol": sc.solver.atol / TIGHT[0],
-                                                "solver.speed_atol": TIGHT[1]})))
+                             f"{TIGHT[1]:g} m/s", tightened(sc)))
             for key, what, s in bs23:
                 b, info = run(what, s, True)
                 vs_ref = per_coupler(*b, *ref, floor)
@@ -223,7 +216,7 @@ def main(argv=None) -> dict:
                     c = per_coupler(*b, *finest, floor)
                     entry["bs23"][key]["vs_finest"] = c
                     rows.append((f"{label}: that bs23 run against ode3 {ladder[-1]:g} s "
-                                 "(the finest)", _per_text(c)))
+                                 "(the finest)", per_coupler_text(c)))
             result["pairs"][f"{window}/{end}"] = entry
     # (a run of part of the windows and ends, or with --finest, writes its own file)
     name = "bench_peak_sensitivity" \
@@ -263,13 +256,6 @@ def cached(folder: Path, code: str, sc, simulate) -> dict:
 
 def _pct(x: float) -> str:
     return f"{x * 100:+.2f} %"
-
-
-def _per_text(c: dict) -> str:
-    """One cell of :func:`bench_heavy_haul.per_coupler`'s result."""
-    return (f"worst {_pct(c['worst_tension'])} (coupler {c['worst_tension_coupler']}) / "
-            f"{_pct(c['worst_compression'])} (coupler {c['worst_compression_coupler']}); "
-            f"{c['peaks_off']} of {c['peaks']} peaks > 2 % off")
 
 
 if __name__ == "__main__":
