@@ -520,15 +520,19 @@ def main(argv=None) -> dict:
         ref_t = (zt["mx"], zt["mn"])
         vs_tight = {"bs23": per_coupler(ds.max_coupler_force.values,
                                         ds.min_coupler_force.values, *ref_t, floor)}
+        # the fixed-step trips of this length at hand, by their step (s)
+        fixed_peaks = {}
         for dt, f in ((1e-4, args.fixed), (5e-5, args.fixed_half),
                       (2.5e-5, args.fixed_quarter)):
             if f.is_file() and whole_trip(f, t_trip):
                 zf = np.load(f)
-                vs_tight[FIXED_STEPS[dt]] = per_coupler(zf["mx"], zf["mn"], *ref_t, floor)
-                rows.append((f"ode3 at {dt:g} s against the tight reference (bs23 at the "
-                             f"tolerances / {TIGHT[0]:g}, speed_atol {TIGHT[1]:g} m/s), "
-                             f"every coupler: {PER_COUPLER}",
-                             per_coupler_text(vs_tight[FIXED_STEPS[dt]])))
+                fixed_peaks[dt] = (zf["mx"], zf["mn"])
+        for dt, peaks in fixed_peaks.items():
+            vs_tight[FIXED_STEPS[dt]] = per_coupler(*peaks, *ref_t, floor)
+            rows.append((f"ode3 at {dt:g} s against the tight reference (bs23 at the "
+                         f"tolerances / {TIGHT[0]:g}, speed_atol {TIGHT[1]:g} m/s), "
+                         f"every coupler: {PER_COUPLER}",
+                         per_coupler_text(vs_tight[FIXED_STEPS[dt]])))
         rows.append(("bs23 against the tight reference, every coupler: " + PER_COUPLER,
                      per_coupler_text(vs_tight["bs23"])))
         # the envelope of the tight run and its members (--make-tight --shift / --nudge):
@@ -551,13 +555,9 @@ def main(argv=None) -> dict:
                          f"{width['widest_compression_coupler']}); {width['wider']} of "
                          f"{width['peaks']}"))
             env = {"members": names, "width": width, "outside": {}}
-            runs = [("bs23", (ds.max_coupler_force.values, ds.min_coupler_force.values))]
-            for dt, f in ((1e-4, args.fixed), (5e-5, args.fixed_half),
-                          (2.5e-5, args.fixed_quarter)):
-                if f.is_file() and whole_trip(f, t_trip):
-                    zf = np.load(f)
-                    runs.append((FIXED_STEPS[dt], (zf["mx"], zf["mn"])))
-            for label, run in runs:
+            runs = {"bs23": (ds.max_coupler_force.values, ds.min_coupler_force.values),
+                    **{FIXED_STEPS[dt]: p for dt, p in fixed_peaks.items()}}
+            for label, run in runs.items():
                 o = outside(run, ens, ref_t, floor)
                 env["outside"][label] = o
                 rows.append(((f"ode3 at {label} s" if label != "bs23" else "bs23")
